@@ -1,0 +1,148 @@
+"""Command line: ``python -m btgen_pytrees [show|validate|run|schema] ...``.
+
+``show`` is the default command, so ``python -m btgen_pytrees test.json`` prints
+the tree. Exit codes: 0 success (run: pass), 1 run fail/timeout/error,
+2 invalid input or usage. Invalid input is reported as one
+``FILE: /json/pointer: message`` line per problem on stderr, never a traceback,
+and nothing is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Callable, Sequence, TextIO
+
+from . import __version__
+from .construct import generate
+from .errors import InvalidTestCase
+from .loader import load, schema_text
+from .render import FORMATS, render
+from .timeline import timeline
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
+COMMANDS = ("show", "validate", "run", "schema")
+
+
+def _can_encode(stream: TextIO, text: str = "·…") -> bool:
+    try:
+        text.encode(getattr(stream, "encoding", None) or "ascii")
+        return True
+    except (UnicodeEncodeError, LookupError):
+        return False
+
+
+def _write(text: str, path: str | None) -> None:
+    if path is None or path == "-":
+        sys.stdout.write(text)
+        return
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
+def _report_invalid(error: InvalidTestCase) -> int:
+    for problem in error.problems:
+        print(problem.render(error.source), file=sys.stderr)
+    return EXIT_INVALID
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    case = load(args.file)
+    fmt = args.format or ("unicode" if args.output or _can_encode(sys.stdout) else "ascii")
+    text = render(generate(case), timeline(case), fmt, max_depth=args.max_depth)
+    _write(text, args.output)
+    return EXIT_OK
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    worst = EXIT_OK
+    for path in args.files:
+        try:
+            case = load(path)
+        except InvalidTestCase as error:
+            worst = max(worst, _report_invalid(error))
+        else:
+            if not args.quiet:
+                print(f"{path}: ok ({len(case.entries)} entries, {len(case.criteria)} criteria)")
+    return worst
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from .run import run
+
+    case = load(args.file)
+    trace = (lambda line: print(line, file=sys.stderr)) if args.trace else None
+    report = run(case, trace=trace)
+    if args.json:
+        _write(report.to_json(), args.json)
+    if args.junit:
+        _write(report.to_junit(), args.junit)
+    sys.stdout.write(report.table())
+    return EXIT_OK if report.passed else EXIT_FAIL
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    sys.stdout.write(schema_text())
+    return EXIT_OK
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m btgen_pytrees",
+        description="Generate a py_trees behaviour tree from a JSON test case, show it, or run it.",
+        epilog="'show' is the default command: 'python -m btgen_pytrees test.json' prints the tree.",
+    )
+    parser.add_argument("--version", action="version", version=f"btgen_pytrees {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,schema}")
+
+    show = sub.add_parser("show", help="print the generated tree (default command)")
+    show.add_argument("file", help="test case JSON file")
+    show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: unicode if the terminal can show it, else ascii)")
+    show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout")
+    show.add_argument("--max-depth", type=int, metavar="N", help="text formats: show nodes down to depth N only")
+    show.set_defaults(func=cmd_show)
+
+    validate = sub.add_parser("validate", help="check test case files; exit 0 only if all are valid")
+    validate.add_argument("files", nargs="+", metavar="FILE")
+    validate.add_argument("--quiet", "-q", action="store_true", help="print problems only")
+    validate.set_defaults(func=cmd_validate)
+
+    run = sub.add_parser("run", help="run the tree on the virtual-clock simulator and print verdicts")
+    run.add_argument("file", help="test case JSON file")
+    run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
+    run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML")
+    run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")
+    run.set_defaults(func=cmd_run)
+
+    schema = sub.add_parser("schema", help="print the test case JSON Schema")
+    schema.set_defaults(func=cmd_schema)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; return the exit code."""
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    if args_list and args_list[0] not in COMMANDS and not args_list[0].startswith("-"):
+        args_list.insert(0, "show")
+    parser = _parser()
+    args = parser.parse_args(args_list)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return EXIT_INVALID
+    func: Callable[[argparse.Namespace], int] = args.func
+    try:
+        return func(args)
+    except InvalidTestCase as error:
+        return _report_invalid(error)
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
+        print(f"btgen_pytrees: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return EXIT_INTERNAL

@@ -1,0 +1,161 @@
+"""Algorithm 1: the execute subtree, from the timeline graph.
+
+The paper walks the adjacency matrix twice. Here both walks go through the
+graph's sparse adjacency, so the cost is linear in entries + edges:
+
+* **columns** (predecessors): an entry with several predecessors is a *join*.
+  It gets a virtual :class:`~btgen_pytrees.leaves.wiring.Trigger` and starts a
+  ``Sequence(trigger, entry, ...)`` directly under the execute root Parallel.
+  Its predecessors are wrapped in a
+  :class:`~btgen_pytrees.leaves.wiring.Completion` that marks them done on the
+  blackboard, which is what the trigger waits for.
+* **rows** (successors): an entry's successors that have no other predecessor
+  continue its Sequence. One such successor is appended to the same Sequence
+  (the paper: "add it to the parent, because the parent is a Sequence"); several
+  go under a ``Parallel(SuccessOnAll)`` whose children are their Sequences.
+* entries without predecessors start together under the ``roots`` Parallel of
+  the ``begin`` Sequence, after the :class:`~btgen_pytrees.leaves.wiring.RunStart`
+  leaf.
+
+Depth is bounded: where nesting one more fork would make the tree deeper than
+:data:`MAX_DEPTH`, the fork's branches are *hoisted* to the execute root behind
+single-predecessor triggers instead. What runs when does not change (a trigger
+placed after its predecessor in tick order fires on the same tick), but
+py_trees' recursive tick stays far from Python's recursion limit.
+
+Sequences have ``memory=True`` so a finished leaf is never ticked again;
+Parallels are ``SuccessOnAll(synchronise=True)`` so a finished branch is skipped
+while its siblings run. Children of the execute root are ordered topologically
+by their first entry, so every trigger is ticked after its predecessors.
+"""
+
+from __future__ import annotations
+
+import heapq
+
+import networkx as nx
+import py_trees
+from py_trees.composites import Parallel, Sequence
+
+from ..leaves import Environment, Registry
+from ..leaves.wiring import Completion, RunStart, Trigger
+from ..model import Entry
+from ..timeline import topological_order
+
+__all__ = ["execute_subtree", "make_entry_leaf", "MAX_DEPTH", "EXECUTE_DEPTH"]
+
+MAX_DEPTH = 100
+"""Deepest level any generated node may sit at (the generated root is level 1)."""
+
+EXECUTE_DEPTH = 3
+"""Level of the execute Parallel: root Parallel → Completion(execute) → execute."""
+
+
+def _all() -> py_trees.common.ParallelPolicy.Base:
+    return py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=True)
+
+
+def make_entry_leaf(entry: Entry, env: Environment, registry: Registry) -> py_trees.behaviour.Behaviour:
+    """Build the leaf for *entry* with its registered factory, tagged with ``btgen_entry``."""
+    leaf_type = registry.get(entry.kind, entry.action)
+    if leaf_type is None:
+        raise LookupError(f"no leaf registered for {entry.kind} action {entry.action!r}")
+    node = leaf_type.factory(entry, env)
+    if not isinstance(node, py_trees.behaviour.Behaviour):
+        raise TypeError(f"the factory for {entry.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
+    node.btgen_entry = entry  # type: ignore[attr-defined]
+    return node
+
+
+class _Walk:
+    """One run of Algorithm 1 over a graph."""
+
+    def __init__(self, graph: nx.DiGraph, env: Environment, registry: Registry, depth: int, max_depth: int):
+        self.graph = graph
+        self.env = env
+        self.registry = registry
+        self.depth = depth
+        self.max_depth = max_depth
+        self.indegree = dict(graph.in_degree())
+        self.position = {v: i for i, v in enumerate(topological_order(graph))}
+        # column walk: predecessors of joins must announce completion
+        self.waited = {p for v, d in self.indegree.items() if d > 1 for p in graph.pred[v]}
+        self.heads: list[tuple[int, str, tuple[str, ...], str]] = [
+            (self.position[v], v, tuple(graph.pred[v]), graph.nodes[v]["entry"].join)
+            for v, d in self.indegree.items()
+            if d > 1
+        ]
+        heapq.heapify(self.heads)
+
+    def leaf(self, v: str, wrap: bool) -> py_trees.behaviour.Behaviour:
+        node = make_entry_leaf(self.graph.nodes[v]["entry"], self.env, self.registry)
+        return Completion(node, self.env, marks=v) if wrap else node
+
+    def chain(self, seq: Sequence, first: str, level: int) -> None:
+        """Row walk from *first*, filling *seq* (which sits at *level*)."""
+        succ, indegree = self.graph.succ, self.indegree
+        stack = [(seq, first, level)]
+        while stack:
+            seq, v, level = stack.pop()
+            while True:
+                singles = [s for s in succ[v] if indegree[s] == 1]
+                # fork Parallel, branch Sequence, Completion, leaf: four more levels
+                hoist = len(singles) > 1 and level + 4 > self.max_depth
+                seq.add_child(self.leaf(v, wrap=v in self.waited or hoist))
+                if not singles:
+                    break
+                if hoist:
+                    for s in singles:
+                        heapq.heappush(self.heads, (self.position[s], s, (v,), "all"))
+                    break
+                if len(singles) == 1:
+                    v = singles[0]
+                    continue
+                fork = Parallel(f"fork {v}", _all())
+                seq.add_child(fork)
+                branches = []
+                for s in singles:
+                    branch = Sequence(f"chain {s}", memory=True)
+                    fork.add_child(branch)
+                    branches.append((branch, s, level + 2))
+                stack.extend(reversed(branches))
+                break
+
+    def build(self) -> Parallel:
+        root = Parallel("timeline", _all())
+        roots = Parallel("roots", _all())
+        root.add_child(Sequence("begin", memory=True, children=[RunStart(self.env), roots]))
+        for v, d in self.indegree.items():  # file order
+            if d == 0:
+                seq = Sequence(f"chain {v}", memory=True)
+                roots.add_child(seq)
+                self.chain(seq, v, self.depth + 3)
+        while self.heads:
+            _, v, preds, join = heapq.heappop(self.heads)
+            kind = "join" if len(preds) > 1 else "chain"
+            seq = Sequence(f"{kind} {v}", memory=True, children=[Trigger(self.env, preds, join)])
+            root.add_child(seq)
+            self.chain(seq, v, self.depth + 1)
+        return root
+
+
+def execute_subtree(
+    graph: nx.DiGraph,
+    env: Environment,
+    registry: Registry,
+    *,
+    depth: int = EXECUTE_DEPTH,
+    max_depth: int = MAX_DEPTH,
+) -> Parallel:
+    """Build the execute subtree of *graph* (Algorithm 1).
+
+    Args:
+        graph: the timeline (see :func:`btgen_pytrees.timeline.timeline`), acyclic
+        env: the environment shared by the tree's nodes
+        registry: where entry leaves come from
+        depth: the level the returned Parallel will sit at in the full tree
+        max_depth: deepest level a node may reach (see :data:`MAX_DEPTH`)
+    """
+    if max_depth < depth + 8:
+        raise ValueError(f"max_depth must be at least {depth + 8}")
+    return _Walk(graph, env, registry, depth, max_depth).build()

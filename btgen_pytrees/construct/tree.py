@@ -1,0 +1,73 @@
+"""The full tree: execute and oracle subtrees under one Parallel.
+
+The root is ``Parallel(case.name, SuccessOnSelected([exit]))`` with children
+``[execute, oracle]``. The exit condition is the oracle subtree when it has
+*others* criteria (the paper), else the execute subtree. A failure of either
+child fails the root. The execute subtree is wrapped in a
+:class:`~btgen_pytrees.leaves.wiring.Completion` that marks ``execute_done`` on
+the blackboard, which ``period``/``final`` criteria without explicit times wait
+for.
+
+>>> from btgen_pytrees import load, generate
+>>> root = generate(load("examples/fig1.json"))
+>>> [c.name for c in root.children]
+['execute', 'oracle']
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import py_trees
+from py_trees.composites import Parallel
+
+from ..clock import Clock
+from ..leaves import Environment, Registry, default_registry, unique_namespace
+from ..leaves.wiring import EXECUTE, Completion
+from ..model import TestCase
+from ..timeline import timeline
+from .execute import EXECUTE_DEPTH, MAX_DEPTH, execute_subtree
+from .oracle import oracle_subtree
+
+__all__ = ["generate"]
+
+
+def generate(
+    case: TestCase,
+    *,
+    registry: Registry | None = None,
+    clock: Clock | None = None,
+    namespace: str | None = None,
+    max_depth: int = MAX_DEPTH,
+) -> py_trees.behaviour.Behaviour:
+    """Generate the behaviour tree of a loaded test case.
+
+    Args:
+        case: from :func:`btgen_pytrees.load`
+        registry: leaf factories (default: the built-in simulated leaves)
+        clock: what leaves read time from (default: wall-clock time); the
+            simulator passes a :class:`~btgen_pytrees.clock.VirtualClock`
+        namespace: blackboard namespace for the tree's keys (default: derived
+            from the test name, unique in this process)
+        max_depth: deepest level a node may sit at (root = 1)
+
+    Returns:
+        the root behaviour; ``root.btgen_env`` is its
+        :class:`~btgen_pytrees.leaves.Environment`, ``root.btgen_case`` the case.
+    """
+    registry = registry if registry is not None else default_registry()
+    env = Environment(namespace or unique_namespace(case.name), clock, case.signals)
+    execute = Completion(
+        execute_subtree(timeline(case), env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth),
+        env,
+        marks=EXECUTE,
+        name="execute",
+    )
+    oracle, others = oracle_subtree(case.criteria, dict(case.relation), env, registry)
+    children: list[Any] = [execute] if oracle is None else [execute, oracle]
+    exit_condition = oracle if others is not None else execute
+    policy = py_trees.common.ParallelPolicy.SuccessOnSelected([exit_condition], synchronise=True)
+    root = Parallel(case.name, policy, children)
+    root.btgen_env = env  # type: ignore[attr-defined]
+    root.btgen_case = case  # type: ignore[attr-defined]
+    return root

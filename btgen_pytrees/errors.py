@@ -1,0 +1,65 @@
+"""Errors as data.
+
+Like :mod:`jsonschema`, the loader does not stop at the first problem and does not
+format messages itself: every problem is a :class:`Problem` (a JSON path, a
+message and the check that found it) and the caller decides how to show them.
+The CLI renders each as ``FILE: /json/pointer: message``.
+
+>>> p = Problem(("execute", 3, "after", 0), "unknown id 'B9'", "graph")
+>>> p.pointer
+'/execute/3/after/0'
+>>> str(InvalidTestCase([p], source="t.json"))
+"t.json: /execute/3/after/0: unknown id 'B9'"
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Union
+
+__all__ = ["Problem", "InvalidTestCase", "pointer"]
+
+PathPart = Union[str, int]
+
+
+def pointer(path: Iterable[PathPart]) -> str:
+    """Render a path as an RFC 6901 JSON pointer; the whole document is ``/``."""
+    parts = [str(p).replace("~", "~0").replace("/", "~1") for p in path]
+    return "/" + "/".join(parts)
+
+
+@dataclass(frozen=True, order=True)
+class Problem:
+    """One thing wrong with a test case.
+
+    Attributes:
+        path: where, as keys and indices from the document root
+        message: what, in words a test author understands
+        cause: which check found it: ``json``, ``schema``, ``id``, ``graph``,
+            ``expression``, ``action``, ``signal``, ``limit``
+    """
+
+    path: tuple[PathPart, ...]
+    message: str
+    cause: str = "schema"
+
+    @property
+    def pointer(self) -> str:
+        return pointer(self.path)
+
+    def render(self, source: str) -> str:
+        return f"{source}: {self.pointer}: {self.message}"
+
+
+class InvalidTestCase(ValueError):
+    """A test case that cannot be turned into a tree.
+
+    Attributes:
+        problems: every problem found, sorted by position in the document
+        source: the file name (or ``<dict>``) the case came from
+    """
+
+    def __init__(self, problems: Iterable[Problem], source: str = "<dict>"):
+        self.problems: tuple[Problem, ...] = tuple(problems)
+        self.source = source
+        super().__init__("\n".join(p.render(source) for p in self.problems))

@@ -1,0 +1,162 @@
+"""A small, safe expression language for ``expect`` fields.
+
+Oracles and ``until`` constraints state their expectations as text, e.g.
+``"speed <= 30 && brake == 0"``. The text comes from a JSON file that may have
+been written by anyone, so it is never handed to :func:`eval` as such. Instead it
+is tokenised by hand, translated to Python syntax, parsed with :mod:`ast` and
+checked against a whitelist of node types *at load time*. Only a checked tree is
+compiled; evaluating it later cannot reach attributes, builtins or imports.
+
+The language::
+
+    numbers, true/false        1, 2.5, 1e3, true, false
+    signal names               speed, brake_1          (not starting with "_")
+    arithmetic                 + - * / %               (no power operator at all)
+    comparisons                == != < <= > >=         (chains like 0 <= x < 5 work)
+    logic                      and or not   &&  ||  !
+    calls                      abs(x) min(a, b, ...) max(a, b, ...)
+    grouping                   ( ... )
+
+Example:
+
+>>> e = parse("0 <= speed && speed < max(limit, 10)")
+>>> sorted(e.names)
+['limit', 'speed']
+>>> e.evaluate({"speed": 5, "limit": 3})
+True
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+__all__ = ["Expression", "ExpressionError", "parse", "RESERVED", "MAX_LENGTH"]
+
+MAX_LENGTH = 1000
+"""Longest accepted expression, in characters (keeps parsing and products bounded)."""
+
+FUNCTIONS: dict[str, Any] = {"abs": abs, "min": min, "max": max}
+RESERVED = frozenset({"and", "or", "not", "true", "false", "True", "False", *FUNCTIONS})
+"""Words that cannot be used as signal names."""
+
+_TOKEN = re.compile(
+    r"""
+    (?P<ws>\s+)
+  | (?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)
+  | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
+  | (?P<op>&&|\|\||==|!=|<=|>=|[<>+\-*/%(),!])
+    """,
+    re.VERBOSE,
+)
+_TRANSLATE = {"&&": " and ", "||": " or ", "!": " not ", "true": "True", "false": "False"}
+
+_ALLOWED = (
+    ast.Expression, ast.BoolOp, ast.And, ast.Or, ast.UnaryOp, ast.Not, ast.USub, ast.UAdd,
+    ast.BinOp, ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Mod, ast.Compare, ast.Eq, ast.NotEq,
+    ast.Lt, ast.LtE, ast.Gt, ast.GtE, ast.Constant, ast.Name, ast.Load, ast.Call,
+)  # fmt: skip
+
+
+class ExpressionError(ValueError):
+    """The text is not an expression of the language; ``str()`` says why."""
+
+
+@dataclass(frozen=True)
+class Expression:
+    """A checked, compiled expression.
+
+    Attributes:
+        source: the text as written in the test case
+        names: the signal names it reads
+    """
+
+    source: str
+    names: frozenset[str]
+    _code: Any = field(repr=False, compare=False)
+
+    def evaluate(self, values: Mapping[str, Any]) -> Any:
+        """Evaluate against signal *values*.
+
+        Raises:
+            ExpressionError: a name has no value, or arithmetic failed
+                (division by zero, comparing a number with nothing, ...).
+        """
+        missing = [n for n in self.names if n not in values]
+        if missing:
+            raise ExpressionError(f"signal {sorted(missing)[0]!r} has no value")
+        try:
+            return eval(self._code, {"__builtins__": {}}, {**FUNCTIONS, **values})  # noqa: S307 - checked AST
+        except (ArithmeticError, TypeError, ValueError) as exc:
+            raise ExpressionError(f"{exc} in {self.source!r}") from None
+
+
+def _translate(text: str) -> str:
+    out: list[str] = []
+    pos = 0
+    while pos < len(text):
+        m = _TOKEN.match(text, pos)
+        if m is None:
+            raise ExpressionError(f"unexpected character {text[pos]!r} at column {pos + 1}")
+        kind, tok = m.lastgroup, m.group()
+        if kind == "name" and tok.startswith("_"):
+            raise ExpressionError(f"names starting with '_' are not allowed ({tok!r})")
+        if kind == "name" and tok in ("True", "False", "None"):
+            raise ExpressionError(f"unknown name {tok!r} (write true/false in lower case)")
+        if kind == "number" and len(tok) > 40:
+            raise ExpressionError(f"number literal too long ({len(tok)} characters)")
+        out.append(_TRANSLATE.get(tok, tok) if kind != "number" else tok)
+        pos = m.end()
+    return "".join(out)
+
+
+def _check(tree: ast.AST) -> frozenset[str]:
+    names: set[str] = set()
+    called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
+    for node in ast.walk(tree):
+        if not isinstance(node, _ALLOWED):
+            raise ExpressionError(f"{type(node).__name__} is not allowed")
+        if isinstance(node, ast.Call):
+            func = node.func
+            if not (isinstance(func, ast.Name) and func.id in FUNCTIONS) or node.keywords:
+                raise ExpressionError("only abs(), min() and max() may be called")
+            if not node.args or (func.id == "abs" and len(node.args) != 1):
+                raise ExpressionError(f"wrong number of arguments to {func.id}()")
+            if func.id != "abs" and len(node.args) == 1:
+                raise ExpressionError(f"{func.id}() needs at least two arguments")
+        elif isinstance(node, ast.Name) and node.id not in FUNCTIONS:
+            names.add(node.id)
+        elif isinstance(node, ast.Name) and id(node) not in called:
+            raise ExpressionError(f"{node.id!r} is a function; call it as {node.id}(...)")
+        elif isinstance(node, ast.Constant):
+            if isinstance(node.value, float) and not math.isfinite(node.value):
+                raise ExpressionError("number literal out of range")
+            if not isinstance(node.value, (int, float, bool)):
+                raise ExpressionError("only numbers and true/false are allowed as constants")
+    return frozenset(names)
+
+
+def parse(text: str) -> Expression:
+    """Parse and check *text*; raise :class:`ExpressionError` if it is not in the language."""
+    if not isinstance(text, str):
+        raise ExpressionError("an expression must be a string")
+    if len(text) > MAX_LENGTH:
+        raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
+    if not text.strip():
+        raise ExpressionError("empty expression")
+    source = _translate(text)
+    try:
+        tree = ast.parse(source.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise ExpressionError(f"syntax error: {exc.msg}") from None
+    except (MemoryError, RecursionError):
+        raise ExpressionError("expression nested too deeply") from None
+    names = _check(tree)
+    try:
+        code = compile(tree, "<expect>", "eval")
+    except (MemoryError, RecursionError):
+        raise ExpressionError("expression nested too deeply") from None
+    return Expression(text, names, code)

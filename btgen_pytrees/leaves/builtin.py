@@ -1,0 +1,56 @@
+"""Registration of the built-in simulated leaves and oracles.
+
+Built-ins go through :meth:`Registry.register` like any plugin; this module is
+the only place that knows their parameter schemas.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from . import oracles, simulated
+from .registry import Registry
+
+__all__ = ["register_builtins", "PARAMS"]
+
+_SECONDS = {"type": "number", "minimum": 0, "description": "seconds, >= 0"}
+_SIGNAL = {"type": "string", "pattern": "^[A-Za-z][A-Za-z0-9_]*$", "description": "a signal name"}
+_VALUE = {"type": ["number", "boolean"]}
+
+
+def _params(required: list[str], **properties: Any) -> dict[str, Any]:
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "type": "object",
+        "required": required,
+        "additionalProperties": False,
+        "properties": properties,
+    }
+
+
+PARAMS: dict[str, dict[str, Any]] = {
+    "set": _params(["signal", "value"], signal=_SIGNAL, value=_VALUE, duration=_SECONDS),
+    "ramp": _params(["signal", "to", "duration"], signal=_SIGNAL, to={"type": "number"}, duration=_SECONDS),
+    "hold": _params(["duration"], duration=_SECONDS),
+    "wait": _params(["duration"], duration=_SECONDS),
+    "until": _params(["expect"], expect={"type": "string", "minLength": 1, "maxLength": 1000}, timeout=_SECONDS),
+}
+
+
+def register_builtins(registry: Registry) -> Registry:
+    """Add the built-in leaves to *registry* and return it."""
+    behaviour, constraint = "behavior", "constraint"
+    registry.register("set", simulated.Set, kind=behaviour, params_schema=PARAMS["set"], signals=("signal",),
+                      description="write a signal; hold for 'duration' if given")  # fmt: skip
+    registry.register("ramp", simulated.Ramp, kind=behaviour, params_schema=PARAMS["ramp"], signals=("signal",),
+                      description="move a signal linearly to 'to' over 'duration'")  # fmt: skip
+    registry.register("hold", simulated.Hold, kind=behaviour, params_schema=PARAMS["hold"],
+                      description="do nothing for 'duration'")  # fmt: skip
+    registry.register("wait", simulated.Wait, kind=constraint, params_schema=PARAMS["wait"],
+                      description="succeed after 'duration'")  # fmt: skip
+    registry.register("until", simulated.Until, kind=constraint, params_schema=PARAMS["until"],
+                      expressions=("expect",), description="succeed once 'expect' holds; fail after 'timeout'")  # fmt: skip
+    registry.register(None, oracles.Record, kind="record", description="expect holds on every tick")
+    registry.register(None, oracles.Period, kind="period", description="expect holds on every tick of a window")
+    registry.register(None, oracles.Final, kind="final", description="expect holds at one instant")
+    return registry

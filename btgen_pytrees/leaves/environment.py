@@ -1,0 +1,115 @@
+"""What the nodes of one generated tree share: a blackboard namespace and a clock.
+
+Every key a generated tree reads or writes lives under its own namespace on the
+py_trees blackboard (default ``/btgen_pytrees/<test name>``, made unique per
+generated tree), so two trees in one process never see each other's signals or
+completion flags, and keys of the host application are never touched::
+
+    <ns>/signals/<name>   simulated signal values
+    <ns>/done/<id>        set when an entry that a trigger waits for has succeeded
+    <ns>/failed/<id>      set when a member of an ``||`` oracle group has failed
+    <ns>/execute_done     set when the execute subtree has succeeded
+    <ns>/t0               clock time of the run's first tick
+
+Values are stored in :attr:`py_trees.blackboard.Blackboard.storage` under those
+absolute keys (so py_trees' blackboard views show them). Reads go to the storage
+directly rather than through a :class:`py_trees.blackboard.Client`: client
+attribute access would collide with signals called ``name``, ``read`` or ``set``,
+and this is the hot path of every tick.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, Iterable, Mapping
+
+from py_trees.blackboard import Blackboard
+
+from ..clock import Clock, WallClock
+
+__all__ = ["Environment", "unique_namespace"]
+
+_used_namespaces: set[str] = set()
+
+
+def unique_namespace(test_name: str) -> str:
+    """A namespace derived from *test_name* that no earlier tree in this process used.
+
+    >>> unique_namespace("my test") == "/btgen_pytrees/my_test"
+    True
+    >>> unique_namespace("my test")
+    '/btgen_pytrees/my_test#2'
+    """
+    base = "/btgen_pytrees/" + (re.sub(r"[^A-Za-z0-9_-]", "_", test_name)[:64] or "_")
+    candidate, n = base, 1
+    while candidate in _used_namespaces:
+        n += 1
+        candidate = f"{base}#{n}"
+    _used_namespaces.add(candidate)
+    return candidate
+
+
+class Environment:
+    """The namespace, clock and initial signals of one generated tree.
+
+    Leaves (built-in and user) receive it from their factory; the wiring nodes
+    (triggers, completion marks) use it to talk to each other.
+    """
+
+    def __init__(self, namespace: str, clock: Clock | None = None, signals: Mapping[str, Any] | None = None):
+        ns = "/" + namespace.strip("/")
+        self.namespace = ns
+        self.clock: Clock = clock if clock is not None else WallClock()
+        self.initial_signals: dict[str, Any] = dict(signals or {})
+        self._signals = ns + "/signals/"
+        self._done = ns + "/done/"
+        self._failed = ns + "/failed/"
+        self._execute_done = ns + "/execute_done"
+        self._t0 = ns + "/t0"
+
+    # -- run lifecycle -------------------------------------------------
+    def start_run(self) -> None:
+        """Forget everything of an earlier run, then set t0 and the initial signals."""
+        prefix = self.namespace + "/"
+        storage = Blackboard.storage
+        for key in [k for k in storage if k.startswith(prefix)]:
+            del storage[key]
+        Blackboard.set(self._t0, self.clock.now())
+        for name, value in self.initial_signals.items():
+            self.write(name, value)
+
+    def now(self) -> float:
+        """Seconds since the run's first tick (0.0 before it)."""
+        return self.clock.now() - Blackboard.storage.get(self._t0, self.clock.now())
+
+    # -- signals ---------------------------------------------------------
+    def read(self, name: str) -> Any:
+        """The current value of signal *name*; ``KeyError`` if it has none."""
+        return Blackboard.storage[self._signals + name]
+
+    def write(self, name: str, value: Any) -> None:
+        Blackboard.set(self._signals + name, value)
+
+    def values(self, names: Iterable[str]) -> dict[str, Any]:
+        """The current values of those *names* that have one."""
+        storage, prefix = Blackboard.storage, self._signals
+        return {n: storage[prefix + n] for n in names if prefix + n in storage}
+
+    # -- completion flags --------------------------------------------------
+    def mark_done(self, entry_id: str) -> None:
+        Blackboard.set(self._done + entry_id, True)
+
+    def is_done(self, entry_id: str) -> bool:
+        return (self._done + entry_id) in Blackboard.storage
+
+    def mark_failed(self, criterion_id: str) -> None:
+        Blackboard.set(self._failed + criterion_id, True)
+
+    def is_failed(self, criterion_id: str) -> bool:
+        return (self._failed + criterion_id) in Blackboard.storage
+
+    def mark_execute_done(self) -> None:
+        Blackboard.set(self._execute_done, True)
+
+    def execute_done(self) -> bool:
+        return self._execute_done in Blackboard.storage

@@ -1,0 +1,128 @@
+"""Built-in oracle leaves: ``record``, ``period`` and ``final`` criteria.
+
+Each oracle keeps its own :class:`Outcome` (verdict, time, message, the values it
+read), because the tree's statuses do not survive the end of a run: when the
+exit condition succeeds, py_trees stops every still-running sibling and resets
+its status. Reports read the outcome instead.
+
+Semantics (times are seconds since the run's first tick):
+
+* ``record`` - ``expect`` holds on every tick; fails at the first violation,
+  otherwise stays RUNNING (its verdict is *pass* when the run ends).
+* ``period`` - ``expect`` holds on every tick in [``from``, ``to``]; ``from``
+  defaults to 0, ``to`` to the tick on which the execute subtree has finished;
+  succeeds at the end of the window, fails at the first violation.
+* ``final`` - evaluated once, at ``at`` or, without it, when the execute
+  subtree has finished.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from ..expressions import ExpressionError
+from ..model import Criterion
+from .environment import Environment
+from .simulated import reached
+
+__all__ = ["Outcome", "Oracle", "Record", "Period", "Final"]
+
+
+@dataclass
+class Outcome:
+    """What an oracle concluded.
+
+    Attributes:
+        verdict: ``pass``, ``fail`` or ``inconclusive`` (still undecided)
+        at: run time of the verdict (or of the last evaluation)
+        message: why, for people
+        values: the signal values it read at that time
+    """
+
+    verdict: str = "inconclusive"
+    at: float | None = None
+    message: str = ""
+    values: dict[str, Any] = field(default_factory=dict)
+
+
+class Oracle(py_trees.behaviour.Behaviour):
+    """Base: evaluates its criterion's expression against the blackboard signals."""
+
+    def __init__(self, criterion: Criterion, env: Environment):
+        super().__init__(name=criterion.name)
+        self.criterion = criterion
+        self.env = env
+        self.outcome = Outcome()
+        self.samples: list[tuple[float, dict[str, Any]]] = []
+
+    def initialise(self) -> None:
+        self.outcome = Outcome()
+        self.samples = []
+
+    def check(self, now: float) -> bool:
+        """Evaluate ``expect`` now; remember the values; on failure record the outcome."""
+        expect = self.criterion.expect
+        values = self.env.values(expect.names)
+        if not self.samples or self.samples[-1][1] != values:
+            self.samples.append((now, values))
+        try:
+            ok = bool(expect.evaluate(values))
+            message = "" if ok else f"{expect.source} is false"
+        except ExpressionError as exc:
+            ok, message = False, str(exc)
+        self.outcome = Outcome("inconclusive" if ok else "fail", now, message, values)
+        if not ok:
+            shown = ", ".join(f"{k}={v!r}" for k, v in sorted(values.items()))
+            self.outcome.message = f"{message} at {now:.6g} s ({shown})" if shown else f"{message} at {now:.6g} s"
+            self.feedback_message = self.outcome.message
+        return ok
+
+    def succeed(self, now: float, why: str) -> Status:
+        self.outcome.verdict, self.outcome.at, self.outcome.message = "pass", now, why
+        self.feedback_message = why
+        return Status.SUCCESS
+
+
+class Record(Oracle):
+    def update(self) -> Status:
+        now = self.env.now()
+        return Status.RUNNING if self.check(now) else Status.FAILURE
+
+    def conclude(self, now: float) -> None:
+        """The run ended without a violation: the record passes."""
+        if self.outcome.verdict != "fail":
+            self.outcome.verdict, self.outcome.at = "pass", now
+            self.outcome.message = f"{self.criterion.expect.source} held on every tick"
+
+
+class Period(Oracle):
+    def update(self) -> Status:
+        now = self.env.now()
+        start = self.criterion.start or 0.0
+        if not reached(now, start):
+            self.feedback_message = f"window opens at {start} s"
+            return Status.RUNNING
+        if not self.check(now):
+            return Status.FAILURE
+        end = self.criterion.end
+        if end is not None and reached(now, end):
+            return self.succeed(now, f"held from {start:g} s to {end:g} s")
+        if end is None and self.env.execute_done():
+            return self.succeed(now, f"held from {start:g} s until execute finished at {now:.6g} s")
+        return Status.RUNNING
+
+
+class Final(Oracle):
+    def update(self) -> Status:
+        now = self.env.now()
+        at = self.criterion.at
+        due = reached(now, at) if at is not None else self.env.execute_done()
+        if not due:
+            return Status.RUNNING
+        if not self.check(now):
+            return Status.FAILURE
+        return self.succeed(now, f"{self.criterion.expect.source} held at {now:.6g} s")

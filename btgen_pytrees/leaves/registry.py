@@ -1,0 +1,106 @@
+"""Which py_trees behaviour stands for which entry or criterion.
+
+A :class:`Registry` maps ``(kind, action)`` to a :class:`LeafType`: a factory
+that builds the leaf, the JSON schema of the action's ``params`` and which of
+them are expressions or signal names (so the loader can check them before any
+tree exists). The built-in simulated leaves are registered exactly like user
+leaves; nothing downstream special-cases them.
+
+>>> from btgen_pytrees.leaves import default_registry
+>>> default_registry().actions("constraint")
+['until', 'wait']
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any, Callable, Mapping, Union
+
+import jsonschema
+import py_trees
+
+from ..model import Criterion, Entry
+from .environment import Environment
+
+__all__ = ["Factory", "LeafType", "Registry", "KINDS"]
+
+KINDS = ("behavior", "constraint", "record", "period", "final")
+Factory = Callable[[Union[Entry, Criterion], Environment], py_trees.behaviour.Behaviour]
+"""``factory(entry_or_criterion, environment) -> Behaviour``."""
+
+
+@dataclass(frozen=True)
+class LeafType:
+    """How to build and check one kind of leaf.
+
+    Attributes:
+        kind: ``behavior``/``constraint`` (execute entries) or a criterion type
+        action: the entry's ``action``; ``None`` for criteria
+        factory: builds the behaviour
+        params_schema: JSON schema for ``params`` (``None``: anything goes)
+        expressions: names of params holding expressions (parsed at load time)
+        signals: names of params holding a signal name (checked against ``signals``)
+        description: one line for ``--help`` style listings
+    """
+
+    kind: str
+    action: str | None
+    factory: Factory
+    params_schema: Mapping[str, Any] | None = None
+    expressions: tuple[str, ...] = ()
+    signals: tuple[str, ...] = ()
+    description: str = ""
+
+    @cached_property
+    def params_validator(self) -> jsonschema.protocols.Validator | None:
+        if self.params_schema is None:
+            return None
+        cls = jsonschema.validators.validator_for(self.params_schema, default=jsonschema.Draft202012Validator)
+        cls.check_schema(self.params_schema)
+        return cls(self.params_schema)
+
+
+class Registry:
+    """A mutable mapping of ``(kind, action)`` to :class:`LeafType`."""
+
+    def __init__(self, types: Mapping[tuple[str, str | None], LeafType] | None = None):
+        self._types: dict[tuple[str, str | None], LeafType] = dict(types or {})
+
+    def register(
+        self,
+        action: str | None,
+        factory: Factory | None = None,
+        *,
+        kind: str = "behavior",
+        params_schema: Mapping[str, Any] | None = None,
+        expressions: tuple[str, ...] = (),
+        signals: tuple[str, ...] = (),
+        description: str = "",
+        replace: bool = False,
+    ) -> Any:
+        """Register *factory* for ``(kind, action)``; usable as a decorator when *factory* is omitted."""
+        if kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, not {kind!r}")
+
+        def add(f: Factory) -> Factory:
+            key = (kind, action)
+            if key in self._types and not replace:
+                raise ValueError(f"{kind} action {action!r} is already registered (pass replace=True)")
+            self._types[key] = LeafType(kind, action, f, params_schema, tuple(expressions), tuple(signals), description)
+            return f
+
+        return add if factory is None else add(factory)
+
+    def get(self, kind: str, action: str | None = None) -> LeafType | None:
+        return self._types.get((kind, action))
+
+    def actions(self, kind: str) -> list[str]:
+        """Sorted action names registered for *kind*."""
+        return sorted(a for (k, a) in self._types if k == kind and a is not None)
+
+    def copy(self) -> "Registry":
+        return Registry(self._types)
+
+    def __contains__(self, key: tuple[str, str | None]) -> bool:
+        return key in self._types

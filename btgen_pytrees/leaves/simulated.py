@@ -1,0 +1,120 @@
+"""Built-in simulated behaviours and constraints.
+
+They act on signals stored on the blackboard (see
+:mod:`~btgen_pytrees.leaves.environment`) and measure time with the
+environment's clock, so the same leaves run on the simulator's virtual clock and
+in a host application on wall-clock time.
+
+Timing rule shared by all of them: a leaf that lasts *d* seconds and starts at
+time *s* succeeds on the first tick with ``now >= s + d`` (with a tolerance of a
+nanosecond, so that 0.1 * 3 counts as 0.3).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from ..expressions import ExpressionError
+from ..model import Entry
+from .environment import Environment
+
+__all__ = ["SimulatedLeaf", "Set", "Ramp", "Hold", "Wait", "Until", "reached"]
+
+
+def reached(elapsed: float, duration: float) -> bool:
+    """Whether *elapsed* seconds cover *duration*, tolerating float rounding."""
+    return elapsed >= duration - 1e-9 * max(1.0, abs(duration))
+
+
+class SimulatedLeaf(py_trees.behaviour.Behaviour):
+    """Base: remembers its entry, its environment and when it started."""
+
+    def __init__(self, entry: Entry, env: Environment):
+        super().__init__(name=entry.name)
+        self.entry = entry
+        self.env = env
+        self.params = entry.params
+        self.started = 0.0
+
+    def initialise(self) -> None:
+        self.started = self.env.now()
+
+    def elapsed(self) -> float:
+        return self.env.now() - self.started
+
+
+class Set(SimulatedLeaf):
+    """``set {signal, value, duration?}``: write *value* at start, then hold for *duration*."""
+
+    def initialise(self) -> None:
+        super().initialise()
+        self.env.write(self.params["signal"], self.params["value"])
+        self.feedback_message = f"{self.params['signal']} = {self.params['value']}"
+
+    def update(self) -> Status:
+        duration = self.params.get("duration")
+        if duration is None or reached(self.elapsed(), duration):
+            return Status.SUCCESS
+        return Status.RUNNING
+
+
+class Ramp(SimulatedLeaf):
+    """``ramp {signal, to, duration}``: move linearly from the value at start to *to*."""
+
+    def initialise(self) -> None:
+        super().initialise()
+        signal = self.params["signal"]
+        try:
+            self.origin: Any = self.env.read(signal)
+        except KeyError:
+            self.origin = self.params["to"]
+
+    def update(self) -> Status:
+        signal, target, duration = self.params["signal"], self.params["to"], self.params["duration"]
+        elapsed = self.elapsed()
+        if reached(elapsed, duration) or not isinstance(self.origin, (int, float)):
+            self.env.write(signal, target)
+            self.feedback_message = f"{signal} = {target}"
+            return Status.SUCCESS
+        value = self.origin + (target - self.origin) * (elapsed / duration)
+        self.env.write(signal, value)
+        self.feedback_message = f"{signal} = {value:.6g}"
+        return Status.RUNNING
+
+
+class Hold(SimulatedLeaf):
+    """``hold {duration}``: a behaviour that lets time pass."""
+
+    def update(self) -> Status:
+        if reached(self.elapsed(), self.params["duration"]):
+            return Status.SUCCESS
+        self.feedback_message = f"{self.elapsed():.6g}/{self.params['duration']} s"
+        return Status.RUNNING
+
+
+class Wait(Hold):
+    """``wait {duration}``: a constraint that succeeds once *duration* has passed."""
+
+
+class Until(SimulatedLeaf):
+    """``until {expect, timeout?}``: succeed on the first tick *expect* holds; fail after *timeout*."""
+
+    def update(self) -> Status:
+        expect = self.entry.expressions["expect"]
+        values = self.env.values(expect.names)
+        try:
+            ok = bool(expect.evaluate(values))
+        except ExpressionError as exc:
+            ok, self.feedback_message = False, str(exc)
+        if ok:
+            self.feedback_message = f"{expect.source} held at {self.env.now():.6g} s"
+            return Status.SUCCESS
+        timeout = self.params.get("timeout")
+        if timeout is not None and reached(self.elapsed(), timeout):
+            shown = ", ".join(f"{k}={v!r}" for k, v in sorted(values.items()))
+            self.feedback_message = f"{expect.source} still false after {timeout} s ({shown})"
+            return Status.FAILURE
+        return Status.RUNNING

@@ -1,0 +1,384 @@
+"""Load and validate a test case: JSON text → :class:`~btgen_pytrees.model.TestCase`.
+
+Validation runs in two stages and reports *every* problem of a stage, each with
+the JSON pointer of the offending value:
+
+1. **shape** - the JSON Schema ``schemas/testcase.schema.json`` (unknown keys,
+   wrong types, missing keys, bad identifiers, ...). If the shape is wrong, the
+   second stage does not run: its checks assume the shape.
+2. **meaning** - what a schema cannot say: duplicate ids, ``after`` naming an
+   unknown id or the entry itself, cycles, ``from`` ≥ ``to``, expressions,
+   signal names, unknown actions and each action's own ``params`` schema.
+
+Problems are raised together as :class:`~btgen_pytrees.errors.InvalidTestCase`.
+
+>>> case = load({"name": "t", "execute": [{"id": "A", "kind": "behavior", "action": "hold",
+...                                        "params": {"duration": 1}}]})
+>>> case.entries[0].id, case.tick, case.timeout
+('A', 0.1, 60.0)
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import os
+from functools import lru_cache
+from importlib import resources
+from types import MappingProxyType
+from typing import Any, Iterable, Iterator, Mapping
+
+import jsonschema
+import networkx as nx
+
+from .errors import InvalidTestCase, PathPart, Problem
+from .expressions import RESERVED, Expression, ExpressionError, parse
+from .leaves import Registry, default_registry
+from .model import Criterion, Entry, TestCase
+
+__all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS"]
+
+MAX_FILE_BYTES = 16 * 1024 * 1024
+"""Largest test-case file accepted (16 MiB); larger files are refused before reading."""
+
+MAX_TICKS = 10_000_000
+"""Most ticks a run may take (``timeout / tick``); keeps every run bounded."""
+
+_MESSAGE_LIMIT = 200
+
+
+def schema_text() -> str:
+    """The test-case JSON Schema, as shipped in the package."""
+    return resources.files(__package__).joinpath("schemas/testcase.schema.json").read_text(encoding="utf-8")
+
+
+@lru_cache(maxsize=1)
+def schema() -> Mapping[str, Any]:
+    return json.loads(schema_text())
+
+
+@lru_cache(maxsize=1)
+def _validator() -> jsonschema.Draft202012Validator:
+    return jsonschema.Draft202012Validator(schema())
+
+
+# ---------------------------------------------------------------------------
+# reading JSON
+
+
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    obj: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in obj:
+            raise _DuplicateKey(key)
+        obj[key] = value
+    return obj
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not valid JSON")
+
+
+def load_json(path: str | os.PathLike[str]) -> Any:
+    """Read a JSON file with the limits of a test case; problems raise :class:`InvalidTestCase`."""
+    source = os.fspath(path)
+    try:
+        size = os.stat(source).st_size
+        if size > MAX_FILE_BYTES:
+            raise InvalidTestCase([Problem((), f"file is {size} bytes; the limit is {MAX_FILE_BYTES}", "limit")], source)
+        with open(source, "rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise InvalidTestCase([Problem((), f"cannot read file: {exc.strerror or exc}", "json")], source) from None
+    if len(raw) > MAX_FILE_BYTES:  # the file grew while we looked
+        raise InvalidTestCase([Problem((), f"file is larger than {MAX_FILE_BYTES} bytes", "limit")], source)
+    return parse_json(raw, source)
+
+
+def parse_json(raw: bytes | str, source: str = "<string>") -> Any:
+    """Parse JSON text strictly: no NaN/Infinity, no duplicate keys, bounded nesting."""
+    def fail(message: str) -> InvalidTestCase:
+        return InvalidTestCase([Problem((), message, "json")], source)
+
+    try:
+        text = raw.decode("utf-8-sig") if isinstance(raw, bytes) else raw
+    except UnicodeDecodeError as exc:
+        raise fail(f"not UTF-8 text (byte {exc.start})") from None
+    try:
+        return json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_reject_constant)
+    except json.JSONDecodeError as exc:
+        raise fail(f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    except _DuplicateKey as exc:
+        raise fail(f"invalid JSON: key {exc.args[0]!r} appears twice in one object") from None
+    except RecursionError:
+        raise fail("invalid JSON: nested too deeply") from None
+    except ValueError as exc:  # NaN/Infinity, integers with too many digits
+        raise fail(f"invalid JSON: {_short(str(exc))}") from None
+
+
+# ---------------------------------------------------------------------------
+# stage 1: shape
+
+
+def _short(text: str) -> str:
+    return text if len(text) <= _MESSAGE_LIMIT else text[: _MESSAGE_LIMIT - 1] + "…"
+
+
+def _shown(value: Any) -> str:
+    return _short(json.dumps(value, ensure_ascii=False) if not isinstance(value, str) else repr(value))
+
+
+def _resolve(data: Any, path: tuple[PathPart, ...]) -> Any:
+    for part in path:
+        data = data[part]
+    return data
+
+
+def _schema_problems(data: Any) -> Iterator[Problem]:
+    for error in _validator().iter_errors(data):
+        path = tuple(error.absolute_path)
+        keyword = error.validator
+        if keyword == "additionalProperties" and isinstance(error.instance, dict):
+            allowed = sorted(error.schema.get("properties", {}))
+            for key in error.instance:
+                if key not in allowed:
+                    hint = difflib.get_close_matches(key, allowed, n=1)
+                    tip = f" (did you mean {hint[0]!r}?)" if hint else f" (allowed: {', '.join(allowed)})"
+                    yield Problem((*path, key), f"unknown key {_shown(key)}{tip}")
+            continue
+        if error.schema is False:  # from/to/at on a criterion of another type (if/else branches)
+            criterion = _resolve(data, path)
+            allowed = {"from": "period", "to": "period", "at": "final"}
+            for key, where in allowed.items():
+                if isinstance(criterion, dict) and key in criterion and criterion.get("type") != where:
+                    yield Problem((*path, key), f"{key!r} is only allowed on {where} criteria")
+            continue
+        if keyword == "required":
+            missing = error.message.split("'")[1] if "'" in error.message else error.message
+            yield Problem(path, f"missing required key {missing!r}")
+            continue
+        description = error.schema.get("description") if isinstance(error.schema, dict) else None
+        if keyword in ("pattern", "anyOf") and description:
+            yield Problem(path, f"{_shown(error.instance)} is not valid: expected {description}")
+            continue
+        yield Problem(path, _short(error.message))
+
+
+# ---------------------------------------------------------------------------
+# stage 2: meaning
+
+
+def _suggest(word: str, candidates: Iterable[str]) -> str:
+    hint = difflib.get_close_matches(word, list(candidates), n=1)
+    return f" (did you mean {hint[0]!r}?)" if hint else ""
+
+
+class _Checker:
+    """Collects meaning-level problems of one schema-valid document."""
+
+    def __init__(self, data: Mapping[str, Any], registry: Registry):
+        self.data = data
+        self.registry = registry
+        self.problems: list[Problem] = []
+        self.declares_signals = "signals" in data
+        self.signals: Mapping[str, Any] = data.get("signals", {})
+
+    def add(self, path: tuple[PathPart, ...], message: str, cause: str) -> None:
+        self.problems.append(Problem(path, message, cause))
+
+    def expression(self, text: str, path: tuple[PathPart, ...]) -> Expression | None:
+        try:
+            expr = parse(text)
+        except ExpressionError as exc:
+            self.add(path, f"bad expression {_shown(text)}: {exc}", "expression")
+            return None
+        if self.declares_signals:
+            for name in sorted(expr.names - set(self.signals)):
+                self.add(path, f"unknown signal {name!r} in {_shown(text)}{_suggest(name, self.signals)}", "signal")
+        return expr
+
+    def signal(self, name: str, path: tuple[PathPart, ...]) -> None:
+        if self.declares_signals and name not in self.signals:
+            self.add(path, f"unknown signal {name!r}{_suggest(name, self.signals)}", "signal")
+
+    def check_signals(self) -> None:
+        for name in self.signals:
+            if name in RESERVED:
+                self.add(("signals", name), f"{name!r} is a reserved word of expressions", "signal")
+
+    def check_limits(self) -> None:
+        tick, timeout = self.data.get("tick", 0.1), self.data.get("timeout", 60)
+        if not (math.isfinite(tick) and math.isfinite(timeout)):
+            self.add(("timeout",) if not math.isfinite(timeout) else ("tick",), "must be a finite number", "limit")
+        elif timeout / tick > MAX_TICKS:
+            self.add(("timeout",), f"timeout/tick is {timeout / tick:.3g} ticks; the limit is {MAX_TICKS}", "limit")
+
+    def entries(self) -> list[Entry]:
+        raw_entries = self.data["execute"]
+        raw_criteria = self.data.get("oracle", {}).get("criteria", [])
+        first: dict[str, tuple[PathPart, ...]] = {}
+        for where, items in (("execute", raw_entries), ("criteria", raw_criteria)):
+            for i, item in enumerate(items):
+                path = ("execute", i, "id") if where == "execute" else ("oracle", "criteria", i, "id")
+                if item["id"] in first:
+                    self.add(path, f"duplicate id {item['id']!r} (first used at {_pointer(first[item['id']])})", "id")
+                else:
+                    first[item["id"]] = path
+        execute_ids = {e["id"] for e in raw_entries}
+        criteria_ids = {c["id"] for c in raw_criteria}
+        default_join = self.data.get("join", "any")
+        entries = []
+        for i, raw in enumerate(raw_entries):
+            after = self._after(i, raw, execute_ids, criteria_ids)
+            entries.append(Entry(
+                id=raw["id"], kind=raw["kind"], action=raw["action"],
+                params=MappingProxyType(dict(raw.get("params", {}))), after=after,
+                join=raw.get("join", default_join), name=raw.get("name", raw["id"]), index=i,
+                expressions=MappingProxyType(self._action(i, raw)),
+            ))  # fmt: skip
+        return entries
+
+    def _after(self, i: int, raw: Mapping[str, Any], execute_ids: set[str], criteria_ids: set[str]) -> tuple[str, ...]:
+        seen: list[str] = []
+        for k, pred in enumerate(raw.get("after", [])):
+            path = ("execute", i, "after", k)
+            if pred == raw["id"]:
+                self.add(path, f"{pred!r} cannot come after itself", "graph")
+            elif pred in seen:
+                self.add(path, f"{pred!r} is listed twice", "graph")
+            elif pred in criteria_ids:
+                self.add(path, f"{pred!r} is an oracle criterion, not an execute entry", "graph")
+            elif pred not in execute_ids:
+                self.add(path, f"unknown id {pred!r}{_suggest(pred, execute_ids)}", "graph")
+            else:
+                seen.append(pred)
+        return tuple(seen)
+
+    def _action(self, i: int, raw: Mapping[str, Any]) -> dict[str, Expression]:
+        kind, action = raw["kind"], raw["action"]
+        leaf = self.registry.get(kind, action)
+        if leaf is None:
+            known = self.registry.actions(kind)
+            other = "constraint" if kind == "behavior" else "behavior"
+            hint = f" ({action!r} is a {other} action)" if action in self.registry.actions(other) else ""
+            hint = hint or _suggest(action, known)
+            self.add(("execute", i, "action"), f"unknown {kind} action {_shown(action)}{hint}; known: {', '.join(known)}", "action")
+            return {}
+        params = raw.get("params", {})
+        validator = leaf.params_validator
+        if validator is not None:
+            errors = list(validator.iter_errors(params))
+            for error in errors:
+                path = ("execute", i, "params", *error.absolute_path)
+                message = error.message
+                if error.validator == "minimum" and error.validator_value == 0:
+                    message = f"must not be negative (got {error.instance})"
+                self.add(path, _short(message), "action")
+            if errors:
+                return {}
+        for name in leaf.signals:
+            if name in params:
+                self.signal(params[name], ("execute", i, "params", name))
+        compiled = {}
+        for name in leaf.expressions:
+            if name in params:
+                expr = self.expression(params[name], ("execute", i, "params", name))
+                if expr is not None:
+                    compiled[name] = expr
+        return compiled
+
+    def criteria(self) -> list[Criterion]:
+        out = []
+        for i, raw in enumerate(self.data.get("oracle", {}).get("criteria", [])):
+            path = ("oracle", "criteria", i)
+            if self.registry.get(raw["type"]) is None:
+                self.add((*path, "type"), f"no leaf is registered for {raw['type']!r} criteria", "action")
+            expr = self.expression(raw["expect"], (*path, "expect"))
+            start, end = raw.get("from"), raw.get("to")
+            if start is not None and end is not None and start >= end:
+                self.add((*path, "from"), f"'from' ({start}) must be less than 'to' ({end})", "limit")
+            if expr is not None:
+                out.append(Criterion(raw["id"], raw["type"], expr, raw.get("name", raw["id"]), i, start, end, raw.get("at")))
+        return out
+
+    def cycles(self, entries: list[Entry]) -> None:
+        graph = nx.DiGraph()
+        graph.add_nodes_from(e.id for e in entries)
+        graph.add_edges_from((p, e.id) for e in entries for p in e.after)
+        index = {e.id: e for e in entries}
+        found = []
+        for component in nx.strongly_connected_components(graph):
+            if len(component) < 2:
+                continue
+            start = min(component, key=lambda v: index[v].index)
+            cycle = _cycle_through(graph.subgraph(component), start)
+            found.append((index[start].index, cycle))
+        for _, cycle in sorted(found):
+            # report at the 'after' item of the cycle's first node that names its predecessor
+            first, pred = cycle[0], cycle[-2]
+            k = index[first].after.index(pred)
+            shown = " -> ".join(cycle)
+            self.add(("execute", index[first].index, "after", k), f"cycle: {shown}", "graph")
+
+
+def _cycle_through(graph: nx.DiGraph, start: str) -> list[str]:
+    """A cycle through *start* in a strongly connected *graph*, written pred -> succ."""
+    path = nx.shortest_path(graph, start, next(iter(graph.pred[start])))
+    return [*path, start]
+
+
+def _pointer(path: tuple[PathPart, ...]) -> str:
+    return Problem(path, "").pointer
+
+
+def _sort_key(problem: Problem) -> tuple[Any, ...]:
+    return tuple((0, p, "") if isinstance(p, int) else (1, 0, p) for p in problem.path), problem.message
+
+
+def validate(data: Any, source: str = "<dict>", registry: Registry | None = None) -> TestCase:
+    """Check parsed JSON *data* and build the :class:`TestCase`; raise :class:`InvalidTestCase`."""
+    registry = registry if registry is not None else default_registry()
+    problems = sorted(set(_schema_problems(data)), key=_sort_key)
+    if problems:
+        raise InvalidTestCase(problems, source)
+    checker = _Checker(data, registry)
+    checker.check_signals()
+    checker.check_limits()
+    entries = checker.entries()
+    criteria = checker.criteria()
+    if not any(p.cause == "graph" for p in checker.problems):
+        checker.cycles(entries)
+    if checker.problems:
+        raise InvalidTestCase(sorted(set(checker.problems), key=_sort_key), source)
+    relation = data.get("oracle", {}).get("relation", "&&")
+    if isinstance(relation, str):
+        relation = {"record": relation, "others": relation}
+    return TestCase(
+        name=data["name"],
+        description=data.get("description", ""),
+        signals=MappingProxyType(dict(data.get("signals", {}))),
+        declares_signals="signals" in data,
+        tick=float(data.get("tick", 0.1)),
+        timeout=float(data.get("timeout", 60)),
+        join=data.get("join", "any"),
+        entries=tuple(entries),
+        criteria=tuple(criteria),
+        relation=MappingProxyType({"record": relation.get("record", "&&"), "others": relation.get("others", "&&")}),
+        source=source,
+    )
+
+
+def load(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Registry | None = None) -> TestCase:
+    """Load a test case from a file path or an already parsed ``dict``.
+
+    Raises:
+        InvalidTestCase: with every problem found (see :mod:`btgen_pytrees.errors`).
+    """
+    if isinstance(source, Mapping):
+        return validate(source, "<dict>", registry)
+    return validate(load_json(source), os.fspath(source), registry)

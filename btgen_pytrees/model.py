@@ -1,0 +1,128 @@
+"""The validated test case, as plain immutable data.
+
+The loader turns JSON into these objects once; everything after it (the
+timeline graph, the construction, the leaves, the views) reads them and never
+the raw JSON again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping
+
+from .expressions import Expression
+
+__all__ = ["Entry", "Criterion", "TestCase", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES"]
+
+BEHAVIOR = "behavior"
+CONSTRAINT = "constraint"
+CRITERION_TYPES = ("record", "period", "final")
+EMPTY: Mapping[str, Any] = MappingProxyType({})
+
+
+@dataclass(frozen=True, eq=False)
+class Entry:
+    """One execute entry: a behaviour or a constraint on the timeline.
+
+    Attributes:
+        id: unique identifier
+        kind: ``behavior`` or ``constraint``
+        action: the leaf type (``set``, ``ramp``, ... or a user action)
+        params: the action's parameters, as written
+        after: ids of the predecessors, in the order written
+        join: ``any`` or ``all`` for entries with several predecessors
+        name: display label (the id when none was given)
+        index: position in the file's ``execute`` list
+        expressions: parameters that the action declares as expressions, parsed
+    """
+
+    id: str
+    kind: str
+    action: str
+    params: Mapping[str, Any]
+    after: tuple[str, ...]
+    join: str
+    name: str
+    index: int
+    expressions: Mapping[str, Expression] = field(default_factory=lambda: EMPTY)
+
+    @property
+    def path(self) -> tuple[str | int, ...]:
+        return ("execute", self.index)
+
+
+@dataclass(frozen=True, eq=False)
+class Criterion:
+    """One oracle criterion.
+
+    Attributes:
+        id, name, index: as for :class:`Entry`
+        type: ``record``, ``period`` or ``final``
+        expect: the parsed expectation
+        start, end: a period's window in run seconds (``from``/``to``); ``None`` = default
+        at: a final's evaluation time; ``None`` = when the execute subtree finishes
+    """
+
+    id: str
+    type: str
+    expect: Expression
+    name: str
+    index: int
+    start: float | None = None
+    end: float | None = None
+    at: float | None = None
+
+    @property
+    def path(self) -> tuple[str | int, ...]:
+        return ("oracle", "criteria", self.index)
+
+
+@dataclass(frozen=True, eq=False)
+class TestCase:
+    """A validated test case.
+
+    Attributes:
+        name, description: as written
+        signals: initial signal values (empty when the file gives none)
+        declares_signals: whether the file had a ``signals`` object (names are then checked)
+        tick, timeout: virtual seconds per tick and before a run is stopped
+        join: the default join
+        entries: execute entries in file order
+        criteria: oracle criteria in file order
+        relation: ``{"record": "&&"|"||", "others": "&&"|"||"}``
+        source: file name, or ``<dict>``
+    """
+
+    __test__ = False  # not a pytest class, despite the name
+
+    name: str
+    entries: tuple[Entry, ...]
+    criteria: tuple[Criterion, ...] = ()
+    signals: Mapping[str, Any] = field(default_factory=lambda: EMPTY)
+    declares_signals: bool = False
+    description: str = ""
+    tick: float = 0.1
+    timeout: float = 60.0
+    join: str = "any"
+    relation: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({"record": "&&", "others": "&&"}))
+    source: str = "<dict>"
+
+    def entry(self, entry_id: str) -> Entry:
+        return self._by_id[entry_id]
+
+    @property
+    def _by_id(self) -> dict[str, Entry]:
+        cache = self.__dict__.get("_by_id_cache")
+        if cache is None:
+            cache = {e.id: e for e in self.entries}
+            object.__setattr__(self, "_by_id_cache", cache)
+        return cache
+
+    @property
+    def records(self) -> tuple[Criterion, ...]:
+        return tuple(c for c in self.criteria if c.type == "record")
+
+    @property
+    def others(self) -> tuple[Criterion, ...]:
+        return tuple(c for c in self.criteria if c.type != "record")

@@ -1,0 +1,59 @@
+"""Views of a generated tree for review: text, JSON, the adjacency matrix.
+
+:func:`render` is the single entry point the CLI uses; each format lives in its
+own module.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Callable
+
+import networkx as nx
+import py_trees
+
+from ..timeline import matrix_text
+from .info import node_info, walk
+from .text import text_tree
+
+__all__ = ["render", "tree_data", "FORMATS", "text_tree", "node_info"]
+
+
+def tree_data(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
+    """The tree as nested data: :func:`~.info.node_info` plus ``children`` (built without recursion)."""
+    made: dict[int, dict[str, Any]] = {}
+    top: dict[str, Any] = {}
+    for _, node in walk(root):
+        info = node_info(node)
+        info["children"] = []
+        made[id(node)] = info
+        parent = made.get(id(node.parent)) if node is not root else None
+        if parent is None:
+            top = info
+        else:
+            parent["children"].append(info)
+    return top
+
+
+def _json(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:
+    return json.dumps(tree_data(root), indent=2, ensure_ascii=False) + "\n"
+
+
+def _matrix(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:
+    return matrix_text(graph)
+
+
+def _unicode(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> str:
+    return text_tree(root, unicode=True, max_depth=max_depth)
+
+
+def _ascii(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> str:
+    return text_tree(root, unicode=False, max_depth=max_depth)
+
+
+FORMATS: dict[str, Callable[..., str]] = {"unicode": _unicode, "ascii": _ascii, "json": _json, "matrix": _matrix}
+
+
+def render(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, fmt: str, **options: Any) -> str:
+    """Render *root* (generated from the timeline *graph*) in format *fmt* (a key of :data:`FORMATS`)."""
+    return FORMATS[fmt](root, graph, **options)

@@ -1,0 +1,104 @@
+"""What a reviewer needs to know about each node, as data.
+
+Every view (text, JSON, dot, BT.CPP XML) is drawn from :func:`node_info`, so
+they cannot disagree about a policy, a selected child or a trigger's
+predecessors.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Iterator
+
+import py_trees
+from py_trees.composites import Parallel, Sequence
+
+from ..leaves.wiring import Completion, OrMember, RunStart, Trigger
+
+__all__ = ["node_info", "walk", "policy_name", "annotation", "role"]
+
+
+def walk(root: py_trees.behaviour.Behaviour) -> Iterator[tuple[int, py_trees.behaviour.Behaviour]]:
+    """Pre-order ``(depth, node)`` pairs, root at depth 0, without recursion."""
+    stack = [(0, root)]
+    while stack:
+        depth, node = stack.pop()
+        yield depth, node
+        stack.extend((depth + 1, child) for child in reversed(node.children))
+
+
+def policy_name(node: Parallel) -> str:
+    return type(node.policy).__name__
+
+
+def role(node: py_trees.behaviour.Behaviour) -> str:
+    """``behavior``, ``constraint``, ``oracle``, ``trigger``, ``wiring`` or ``composite``."""
+    if getattr(node, "btgen_entry", None) is not None:
+        return node.btgen_entry.kind  # type: ignore[attr-defined, no-any-return]
+    if getattr(node, "btgen_criterion", None) is not None:
+        return "oracle"
+    if isinstance(node, Trigger):
+        return "trigger"
+    if isinstance(node, (Completion, OrMember, RunStart)):
+        return "wiring"
+    return "composite"
+
+
+def node_info(node: py_trees.behaviour.Behaviour) -> dict[str, Any]:
+    """A node as JSON-ready data (without its children)."""
+    info: dict[str, Any] = {"name": node.name, "type": type(node).__name__}
+    if isinstance(node, Parallel):
+        info["policy"] = policy_name(node)
+        info["synchronise"] = node.policy.synchronise
+        if isinstance(node.policy, py_trees.common.ParallelPolicy.SuccessOnSelected):
+            info["selected"] = [child.name for child in node.policy.children]
+    elif isinstance(node, Sequence):
+        info["memory"] = node.memory
+    entry = getattr(node, "btgen_entry", None)
+    if entry is not None:
+        info.update(id=entry.id, kind=entry.kind, action=entry.action, params=dict(entry.params))
+    criterion = getattr(node, "btgen_criterion", None)
+    if criterion is not None:
+        info.update(id=criterion.id, criterion=criterion.type, expect=criterion.expect.source)
+        for key, value in (("from", criterion.start), ("to", criterion.end), ("at", criterion.at)):
+            if value is not None:
+                info[key] = value
+    if isinstance(node, Trigger):
+        info.update(waits_for=list(node.waits_for), join=node.join)
+    elif isinstance(node, Completion):
+        info["marks"] = node.marks if node.marks is not None else "execute"
+    elif isinstance(node, OrMember):
+        info.update(member=node.member, group=list(node.group))
+    return info
+
+
+def _value(v: Any) -> str:
+    return str(v).lower() if isinstance(v, bool) else str(v)
+
+
+def annotation(node: py_trees.behaviour.Behaviour) -> str:
+    """One line of review detail for the text views ("" when the name says it all)."""
+    info = node_info(node)
+    if "policy" in info:
+        text = info["policy"]
+        if "selected" in info:
+            text += "(" + ", ".join(info["selected"]) + ")"
+        return text + (", synchronised" if info["synchronise"] else "")
+    if "memory" in info:
+        return "memory" if info["memory"] else "no memory"
+    if "action" in info:
+        params = ", ".join(f"{k}={_value(v)}" for k, v in info["params"].items())
+        label = f"{info['id']}: " if info["id"] != info["name"] else ""
+        return f"{label}{info['kind']} {info['action']}({params})"
+    if "criterion" in info:
+        window = "".join(f", {k}={info[k]}" for k in ("from", "to", "at") if k in info)
+        label = f"{info['id']}: " if info["id"] != info["name"] else ""
+        return f"{label}{info['criterion']}: {info['expect']}{window}"
+    if "waits_for" in info:
+        return f"trigger: waits for {info['join']} of {', '.join(info['waits_for'])}"
+    if "marks" in info:
+        return f"marks {info['marks']} done on the blackboard"
+    if "member" in info:
+        return f"|| member; fails only when all of {', '.join(info['group'])} failed"
+    if isinstance(node, RunStart):
+        return "resets the blackboard namespace, starts the clock, sets initial signals"
+    return ""

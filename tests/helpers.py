@@ -1,0 +1,49 @@
+"""Shared helpers: build test-case dicts tersely, generate and run them."""
+
+from __future__ import annotations
+
+from typing import Any, Iterable
+
+import btgen_pytrees
+from btgen_pytrees.run import run
+
+
+def entry(id: str, after: Iterable[str] = (), *, action: str = "hold", kind: str | None = None,
+          join: str | None = None, **params: Any) -> dict[str, Any]:  # fmt: skip
+    """An execute entry; ``hold``/``wait`` default to a one-second duration."""
+    if action in ("hold", "wait") and "duration" not in params:
+        params["duration"] = 1
+    if kind is None:
+        kind = "constraint" if action in ("wait", "until") else "behavior"
+    e: dict[str, Any] = {"id": id, "kind": kind, "action": action, "params": params}
+    if after:
+        e["after"] = list(after)
+    if join:
+        e["join"] = join
+    return e
+
+
+def case(*entries: dict[str, Any], criteria: list[dict[str, Any]] | None = None, relation: Any = None,
+         **top: Any) -> dict[str, Any]:  # fmt: skip
+    data: dict[str, Any] = {"name": top.pop("name", "t"), "execute": list(entries), **top}
+    if criteria is not None:
+        data["oracle"] = {"criteria": criteria}
+        if relation is not None:
+            data["oracle"]["relation"] = relation
+    return data
+
+
+def crit(id: str, type: str, expect: str, **extra: Any) -> dict[str, Any]:
+    return {"id": id, "type": type, "expect": expect, **extra}
+
+
+def chain(n: int, duration: float = 0.1) -> dict[str, Any]:
+    return case(*[entry(f"S{i}", [f"S{i - 1}"] if i else [], duration=duration) for i in range(n)])
+
+
+def generate(data: dict[str, Any], **kw: Any):  # type: ignore[no-untyped-def]
+    return btgen_pytrees.generate(btgen_pytrees.load(data), **kw)
+
+
+def run_case(data: dict[str, Any], **kw: Any):  # type: ignore[no-untyped-def]
+    return run(btgen_pytrees.load(data), **kw)

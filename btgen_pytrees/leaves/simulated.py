@@ -62,23 +62,28 @@ class Set(SimulatedLeaf):
 
 
 class Ramp(SimulatedLeaf):
-    """``ramp {signal, to, duration}``: move linearly from the value at start to *to*."""
+    """``ramp {signal, to, duration}``: move linearly from the value at start (0 if unset) to *to*.
+
+    A boolean signal cannot be interpolated: it takes *to* at the end of the ramp.
+    """
 
     def initialise(self) -> None:
         super().initialise()
         signal = self.params["signal"]
         try:
             self.origin: Any = self.env.read(signal)
-        except KeyError:
-            self.origin = self.params["to"]
+        except KeyError:  # a signal without an initial value ramps from 0
+            self.origin = 0
 
     def update(self) -> Status:
         signal, target, duration = self.params["signal"], self.params["to"], self.params["duration"]
         elapsed = self.elapsed()
-        if reached(elapsed, duration) or not isinstance(self.origin, (int, float)):
+        if reached(elapsed, duration):
             self.env.write(signal, target)
             self.feedback_message = f"{signal} = {target}"
             return Status.SUCCESS
+        if isinstance(self.origin, bool):
+            return Status.RUNNING
         value = self.origin + (target - self.origin) * (elapsed / duration)
         self.env.write(signal, value)
         self.feedback_message = f"{signal} = {value:.6g}"

@@ -17,6 +17,7 @@ from typing import Callable, Sequence, TextIO
 from . import __version__
 from .construct import generate
 from .errors import InvalidTestCase
+from .leaves import PluginError, Registry, default_registry
 from .loader import load, schema_text
 from .render import FORMATS, render
 from .timeline import timeline
@@ -51,19 +52,25 @@ def _report_invalid(error: InvalidTestCase) -> int:
     return EXIT_INVALID
 
 
+def _registry(args: argparse.Namespace) -> Registry:
+    return default_registry(args.plugin or ())
+
+
 def cmd_show(args: argparse.Namespace) -> int:
-    case = load(args.file)
+    registry = _registry(args)
+    case = load(args.file, registry=registry)
     fmt = args.format or ("unicode" if args.output or _can_encode(sys.stdout) else "ascii")
-    text = render(generate(case), timeline(case), fmt, max_depth=args.max_depth)
+    text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
     _write(text, args.output)
     return EXIT_OK
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
     worst = EXIT_OK
+    registry = _registry(args)
     for path in args.files:
         try:
-            case = load(path)
+            case = load(path, registry=registry)
         except InvalidTestCase as error:
             worst = max(worst, _report_invalid(error))
         else:
@@ -75,9 +82,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
 def cmd_run(args: argparse.Namespace) -> int:
     from .run import run
 
-    case = load(args.file)
+    registry = _registry(args)
+    case = load(args.file, registry=registry)
     trace = (lambda line: print(line, file=sys.stderr)) if args.trace else None
-    report = run(case, trace=trace)
+    report = run(case, registry=registry, trace=trace)
     if args.json:
         _write(report.to_json(), args.json)
     if args.junit:
@@ -99,20 +107,23 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"btgen_pytrees {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,schema}")
+    plugin = argparse.ArgumentParser(add_help=False)
+    plugin.add_argument("--plugin", action="append", metavar="MODULE",
+                        help="import MODULE and call its register(registry) to add leaves (repeatable)")  # fmt: skip
 
-    show = sub.add_parser("show", help="print the generated tree (default command)")
+    show = sub.add_parser("show", parents=[plugin], help="print the generated tree (default command)")
     show.add_argument("file", help="test case JSON file")
     show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: unicode if the terminal can show it, else ascii)")
     show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout")
     show.add_argument("--max-depth", type=int, metavar="N", help="text formats: show nodes down to depth N only")
     show.set_defaults(func=cmd_show)
 
-    validate = sub.add_parser("validate", help="check test case files; exit 0 only if all are valid")
+    validate = sub.add_parser("validate", parents=[plugin], help="check test case files; exit 0 only if all are valid")
     validate.add_argument("files", nargs="+", metavar="FILE")
     validate.add_argument("--quiet", "-q", action="store_true", help="print problems only")
     validate.set_defaults(func=cmd_validate)
 
-    run = sub.add_parser("run", help="run the tree on the virtual-clock simulator and print verdicts")
+    run = sub.add_parser("run", parents=[plugin], help="run the tree on the virtual-clock simulator and print verdicts")
     run.add_argument("file", help="test case JSON file")
     run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML")
@@ -139,6 +150,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return func(args)
     except InvalidTestCase as error:
         return _report_invalid(error)
+    except PluginError as error:
+        print(f"btgen_pytrees: {error}", file=sys.stderr)
+        return EXIT_INVALID
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:

@@ -52,6 +52,7 @@ _TOKEN = re.compile(
     """,
     re.VERBOSE,
 )
+_GLUED = re.compile(r"[A-Za-z0-9_.]+")
 _TRANSLATE = {"&&": " and ", "||": " or ", "!": " not ", "true": "True", "false": "False"}
 
 _ALLOWED = (
@@ -108,6 +109,11 @@ def _translate(text: str) -> str:
             raise ExpressionError(f"unknown name {tok!r} (write true/false in lower case)")
         if kind == "number" and len(tok) > 40:
             raise ExpressionError(f"number literal too long ({len(tok)} characters)")
+        # Fuzz finding: a name glued to a number became a Python literal outside the
+        # language ("0x10", "0b1", "0o7"; hex escaped the 40-character limit) or a
+        # SyntaxWarning printed on stderr ("1or 2", "2e").
+        if kind == "number" and _GLUED.match(text, m.end()):
+            raise ExpressionError(f"invalid number {_GLUED.match(text, pos).group()!r} at column {pos + 1}")  # type: ignore[union-attr]
         out.append(_TRANSLATE.get(tok, tok) if kind != "number" else tok)
         pos = m.end()
     return "".join(out)

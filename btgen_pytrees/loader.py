@@ -24,6 +24,7 @@ import difflib
 import json
 import math
 import os
+import re
 from functools import lru_cache
 from importlib import resources
 from types import MappingProxyType
@@ -44,6 +45,9 @@ MAX_FILE_BYTES = 16 * 1024 * 1024
 
 MAX_TICKS = 10_000_000
 """Most ticks a run may take (``timeout / tick``); keeps every run bounded."""
+
+MAX_NESTING = 100
+"""Deepest nesting of arrays/objects accepted (fuzz finding: deeper values crashed error reporting)."""
 
 _MESSAGE_LIMIT = 200
 
@@ -119,6 +123,44 @@ def parse_json(raw: bytes | str, source: str = "<string>") -> Any:
         raise fail("invalid JSON: nested too deeply") from None
     except ValueError as exc:  # NaN/Infinity, integers with too many digits
         raise fail(f"invalid JSON: {_short(str(exc))}") from None
+
+
+# ---------------------------------------------------------------------------
+# stage 0: values every later stage can handle
+#
+# Fuzz findings (tests/test_fuzz.py), each an exit 3 before this stage existed:
+# * an integer beyond float range (e.g. "timeout": 1e4000 written out as digits)
+#   raised OverflowError in the timeout/tick check, or later while running;
+# * a lone surrogate ("\ud800" escape) in a string reached the output streams and
+#   raised UnicodeEncodeError;
+# * a value nested ~1000 deep parsed, then raised RecursionError while an error
+#   message showed it.
+
+_SURROGATE = re.compile("[\ud800-\udfff]")
+
+
+def _value_problems(data: Any) -> Iterator[Problem]:
+    stack: list[tuple[tuple[PathPart, ...], Any]] = [((), data)]
+    while stack:  # iterative: no recursion limit to hit
+        path, value = stack.pop()
+        if isinstance(value, str):
+            bad = _SURROGATE.search(value)
+            if bad:
+                yield Problem(path, f"not valid Unicode: lone surrogate {ascii(bad.group())} at character {bad.start()}", "json")
+        elif isinstance(value, int) and not isinstance(value, bool):
+            try:
+                float(value)
+            except OverflowError:
+                yield Problem(path, f"number too large ({value.bit_length()} bits; the limit is about 1.8e308)", "limit")
+        elif isinstance(value, (dict, list)):
+            if len(path) >= MAX_NESTING:
+                yield Problem(path, f"nested more than {MAX_NESTING} levels deep", "limit")
+                continue
+            for key, item in value.items() if isinstance(value, dict) else enumerate(value):
+                if isinstance(key, str) and _SURROGATE.search(key):
+                    yield Problem(path, f"not valid Unicode: key {ascii(key)[:_MESSAGE_LIMIT]} has a lone surrogate", "json")
+                    continue
+                stack.append(((*path, key), item))
 
 
 # ---------------------------------------------------------------------------
@@ -239,7 +281,7 @@ class _Checker:
                 id=raw["id"], kind=raw["kind"], action=raw["action"],
                 params=MappingProxyType(dict(raw.get("params", {}))), after=after,
                 join=raw.get("join", default_join), name=raw.get("name", raw["id"]), index=i,
-                expressions=MappingProxyType(self._action(i, raw)),
+                expressions=MappingProxyType(self._leaf(("execute", i), raw["kind"], raw["action"], raw.get("params", {}))),
             ))  # fmt: skip
         return entries
 
@@ -259,35 +301,37 @@ class _Checker:
                 seen.append(pred)
         return tuple(seen)
 
-    def _action(self, i: int, raw: Mapping[str, Any]) -> dict[str, Expression]:
-        kind, action = raw["kind"], raw["action"]
+    def _leaf(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> dict[str, Expression]:
+        """Check that a leaf is registered for (kind, action) and that its params fit; parse its expressions."""
         leaf = self.registry.get(kind, action)
         if leaf is None:
+            if action is None:
+                self.add((*path, "type"), f"no leaf is registered for {kind!r} criteria", "action")
+                return {}
             known = self.registry.actions(kind)
-            other = "constraint" if kind == "behavior" else "behavior"
-            hint = f" ({action!r} is a {other} action)" if action in self.registry.actions(other) else ""
+            other = {"behavior": "constraint", "constraint": "behavior"}.get(kind)
+            hint = f" ({action!r} is a {other} action)" if other and action in self.registry.actions(other) else ""
             hint = hint or _suggest(action, known)
-            self.add(("execute", i, "action"), f"unknown {kind} action {_shown(action)}{hint}; known: {', '.join(known)}", "action")
+            listed = ", ".join(known) if known else "none"
+            self.add((*path, "action"), f"unknown {kind} action {_shown(action)}{hint}; known: {listed}", "action")
             return {}
-        params = raw.get("params", {})
         validator = leaf.params_validator
         if validator is not None:
             errors = list(validator.iter_errors(params))
             for error in errors:
-                path = ("execute", i, "params", *error.absolute_path)
                 message = error.message
                 if error.validator == "minimum" and error.validator_value == 0:
                     message = f"must not be negative (got {error.instance})"
-                self.add(path, _short(message), "action")
+                self.add((*path, "params", *error.absolute_path), _short(message), "action")
             if errors:
                 return {}
         for name in leaf.signals:
-            if name in params:
-                self.signal(params[name], ("execute", i, "params", name))
+            if isinstance(params.get(name), str):
+                self.signal(params[name], (*path, "params", name))
         compiled = {}
         for name in leaf.expressions:
-            if name in params:
-                expr = self.expression(params[name], ("execute", i, "params", name))
+            if isinstance(params.get(name), str):
+                expr = self.expression(params[name], (*path, "params", name))
                 if expr is not None:
                     compiled[name] = expr
         return compiled
@@ -296,14 +340,18 @@ class _Checker:
         out = []
         for i, raw in enumerate(self.data.get("oracle", {}).get("criteria", [])):
             path = ("oracle", "criteria", i)
-            if self.registry.get(raw["type"]) is None:
-                self.add((*path, "type"), f"no leaf is registered for {raw['type']!r} criteria", "action")
+            params = raw.get("params", {})
+            expressions = self._leaf(path, raw["type"], raw.get("action"), params)
             expr = self.expression(raw["expect"], (*path, "expect"))
             start, end = raw.get("from"), raw.get("to")
             if start is not None and end is not None and start >= end:
                 self.add((*path, "from"), f"'from' ({start}) must be less than 'to' ({end})", "limit")
             if expr is not None:
-                out.append(Criterion(raw["id"], raw["type"], expr, raw.get("name", raw["id"]), i, start, end, raw.get("at")))
+                out.append(Criterion(
+                    raw["id"], raw["type"], expr, raw.get("name", raw["id"]), i, start, end, raw.get("at"),
+                    action=raw.get("action"), params=MappingProxyType(dict(params)),
+                    expressions=MappingProxyType(expressions),
+                ))  # fmt: skip
         return out
 
     def cycles(self, entries: list[Entry]) -> None:
@@ -343,6 +391,9 @@ def _sort_key(problem: Problem) -> tuple[Any, ...]:
 def validate(data: Any, source: str = "<dict>", registry: Registry | None = None) -> TestCase:
     """Check parsed JSON *data* and build the :class:`TestCase`; raise :class:`InvalidTestCase`."""
     registry = registry if registry is not None else default_registry()
+    problems = sorted(set(_value_problems(data)), key=_sort_key)  # stage 0 (fuzz findings, see above)
+    if problems:
+        raise InvalidTestCase(problems, source)
     problems = sorted(set(_schema_problems(data)), key=_sort_key)
     if problems:
         raise InvalidTestCase(problems, source)

@@ -62,6 +62,8 @@ class Criterion:
         expect: the parsed expectation
         start, end: a period's window in run seconds (``from``/``to``); ``None`` = default
         at: a final's evaluation time; ``None`` = when the execute subtree finishes
+        action: selects a user oracle leaf registered for ``(type, action)``; ``None``: the built-in
+        params, expressions: the user leaf's parameters, and those it declares as expressions, parsed
     """
 
     id: str
@@ -72,6 +74,9 @@ class Criterion:
     start: float | None = None
     end: float | None = None
     at: float | None = None
+    action: str | None = None
+    params: Mapping[str, Any] = field(default_factory=lambda: EMPTY)
+    expressions: Mapping[str, Expression] = field(default_factory=lambda: EMPTY)
 
     @property
     def path(self) -> tuple[str | int, ...]:

@@ -35,9 +35,9 @@ Policy = py_trees.common.ParallelPolicy
 
 def make_criterion_leaf(criterion: Criterion, env: Environment, registry: Registry) -> py_trees.behaviour.Behaviour:
     """Build the leaf for *criterion* with its registered factory, tagged with ``btgen_criterion``."""
-    leaf_type = registry.get(criterion.type)
+    leaf_type = registry.get(criterion.type, criterion.action)
     if leaf_type is None:
-        raise LookupError(f"no leaf registered for {criterion.type!r} criteria")
+        raise LookupError(f"no leaf registered for {criterion.type!r} criteria with action {criterion.action!r}")
     node = leaf_type.factory(criterion, env)
     if not isinstance(node, py_trees.behaviour.Behaviour):
         raise TypeError(f"the factory for {criterion.type!r} returned {type(node).__name__}, not a py_trees Behaviour")

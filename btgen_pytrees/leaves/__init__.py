@@ -2,20 +2,39 @@
 
 * :mod:`.registry` - which behaviour stands for which action or criterion type
 * :mod:`.builtin` - the built-in simulated leaves, registered like any plugin
-* :mod:`.simulated`, :mod:`.oracles` - their implementations
+* :mod:`.plugins` - user leaves from entry points and ``--plugin`` modules
+* :mod:`.simulated`, :mod:`.oracles` - the built-in implementations
 * :mod:`.wiring` - triggers and completion marks the generator adds
 * :mod:`.environment` - blackboard namespace and clock shared by one tree
 """
 
 from __future__ import annotations
 
+from typing import Iterable
+
+from . import plugins as _plugins
 from .builtin import register_builtins
 from .environment import Environment, unique_namespace
+from .plugins import PluginError
 from .registry import Factory, LeafType, Registry
 
-__all__ = ["Environment", "Factory", "LeafType", "Registry", "default_registry", "unique_namespace"]
+__all__ = [
+    "Environment", "Factory", "LeafType", "PluginError", "Registry",
+    "builtin_registry", "default_registry", "unique_namespace",
+]  # fmt: skip
 
 
-def default_registry() -> Registry:
-    """A new registry holding only the built-in leaves (callers may add to it freely)."""
+def builtin_registry() -> Registry:
+    """A new registry holding only the built-in leaves."""
     return register_builtins(Registry())
+
+
+def default_registry(plugins: Iterable[str] = ()) -> Registry:
+    """A new registry: the built-ins, installed entry-point plugins, then *plugins* (module names).
+
+    Raises:
+        PluginError: a plugin failed to import or to register.
+    """
+    registry = builtin_registry()
+    _plugins.apply(registry, _plugins.installed_plugins())
+    return _plugins.apply(registry, [_plugins.load_module_plugin(m) for m in plugins])

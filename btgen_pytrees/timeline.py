@@ -28,7 +28,7 @@ import networkx as nx
 
 from .model import TestCase
 
-__all__ = ["timeline", "adjacency_matrix", "topological_order", "matrix_text"]
+__all__ = ["timeline", "adjacency_matrix", "topological_order", "matrix_text", "DENSE_LIMIT"]
 
 
 def timeline(case: TestCase) -> nx.DiGraph:
@@ -57,9 +57,22 @@ def _rows(graph: nx.DiGraph) -> Iterator[list[int]]:
         yield [1 if w in succ else 0 for w in nodes]
 
 
-def matrix_text(graph: nx.DiGraph) -> str:
-    """The paper's figure-2 table: a header row of ids, then one row per entry."""
+DENSE_LIMIT = 200
+"""Largest timeline whose matrix is printed as a dense table; larger ones print sparse rows."""
+
+
+def matrix_text(graph: nx.DiGraph, dense_limit: int = DENSE_LIMIT) -> str:
+    """The paper's figure-2 table: a header row of ids, then one row per entry.
+
+    Beyond *dense_limit* entries the n×n table would be unreadable (and, at
+    10,000 entries, gigabytes), so each row is printed sparsely instead: the
+    entry, then the columns holding a 1 (``B1: C1 B2``).
+    """
     nodes = list(graph)
+    if len(nodes) > dense_limit:
+        lines = [f"# adjacency matrix of {len(nodes)} entries, sparse rows: ENTRY: successors (columns holding 1)"]
+        lines += [f"{v}: {' '.join(graph.succ[v])}".rstrip() for v in nodes]
+        return "\n".join(lines) + "\n"
     width = max([len(v) for v in nodes] + [1])
     lines = [" " * width + " " + " ".join(v.rjust(width) for v in nodes)]
     for v, row in zip(nodes, _rows(graph)):

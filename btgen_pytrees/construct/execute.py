@@ -47,6 +47,9 @@ __all__ = ["execute_subtree", "make_entry_leaf", "MAX_DEPTH", "EXECUTE_DEPTH"]
 MAX_DEPTH = 100
 """Deepest level any generated node may sit at (the generated root is level 1)."""
 
+CHUNK = 256
+"""Most children of one Sequence; longer chains are split into parts (see :class:`_ChainWriter`)."""
+
 EXECUTE_DEPTH = 3
 """Level of the execute Parallel: root Parallel → Completion(execute) → execute."""
 
@@ -65,6 +68,50 @@ def make_entry_leaf(entry: Entry, env: Environment, registry: Registry) -> py_tr
         raise TypeError(f"the factory for {entry.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
     node.btgen_entry = entry  # type: ignore[attr-defined]
     return node
+
+
+class _ChainWriter:
+    """Appends a chain's nodes to its Sequence, in parts of :data:`CHUNK` once it grows long.
+
+    py_trees' memory Sequence finds its running child with ``list.index`` on every
+    tick, so one Sequence of 100,000 leaves costs 50,000 comparisons a tick. A long
+    chain is therefore split: its Sequence holds part Sequences of at most
+    :data:`CHUNK` nodes each, one level deeper. Order and memory semantics are the
+    same; only chains longer than :data:`CHUNK` change shape.
+    """
+
+    def __init__(self, seq: Sequence, level: int):
+        self.top = seq
+        self.part: Sequence | None = None
+        self.parts = 0
+        self.top_level = level
+
+    @property
+    def level(self) -> int:
+        """Level of the Sequence the next node goes into."""
+        full = self.part is None and len(self.top.children) >= CHUNK
+        return self.top_level + (0 if self.part is None and not full else 1)
+
+    def add(self, node: py_trees.behaviour.Behaviour) -> int:
+        """Append *node*; return the level of the Sequence it went into."""
+        if self.part is None and len(self.top.children) < CHUNK:
+            self.top.add_child(node)
+            return self.top_level
+        if self.part is None:  # first overflow: move what is there into part 1
+            moved = list(self.top.children)
+            self.top.remove_all_children()
+            self.part = self._new_part()
+            self.part.add_children(moved)
+        if len(self.part.children) >= CHUNK:
+            self.part = self._new_part()
+        self.part.add_child(node)
+        return self.top_level + 1
+
+    def _new_part(self) -> Sequence:
+        self.parts += 1
+        part = Sequence(f"{self.top.name} part {self.parts}", memory=True)
+        self.top.add_child(part)
+        return part
 
 
 class _Walk:
@@ -97,11 +144,12 @@ class _Walk:
         stack = [(seq, first, level)]
         while stack:
             seq, v, level = stack.pop()
+            out = _ChainWriter(seq, level)
             while True:
                 singles = [s for s in succ[v] if indegree[s] == 1]
                 # fork Parallel, branch Sequence, Completion, leaf: four more levels
-                hoist = len(singles) > 1 and level + 4 > self.max_depth
-                seq.add_child(self.leaf(v, wrap=v in self.waited or hoist))
+                hoist = len(singles) > 1 and out.level + 4 > self.max_depth
+                out.add(self.leaf(v, wrap=v in self.waited or hoist))
                 if not singles:
                     break
                 if hoist:
@@ -112,12 +160,12 @@ class _Walk:
                     v = singles[0]
                     continue
                 fork = Parallel(f"fork {v}", _all())
-                seq.add_child(fork)
+                fork_level = out.add(fork)
                 branches = []
                 for s in singles:
                     branch = Sequence(f"chain {s}", memory=True)
                     fork.add_child(branch)
-                    branches.append((branch, s, level + 2))
+                    branches.append((branch, s, fork_level + 2))
                 stack.extend(reversed(branches))
                 break
 

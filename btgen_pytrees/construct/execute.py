@@ -18,8 +18,8 @@ graph's sparse adjacency, so the cost is linear in entries + edges:
   leaf.
 
 Depth is bounded: where nesting one more fork would make the tree deeper than
-:data:`MAX_DEPTH`, the fork's branches are *hoisted* to the execute root behind
-single-predecessor triggers instead. What runs when does not change (a trigger
+:data:`MAX_DEPTH`, the fork is *hoisted* to the execute root behind a
+single-predecessor trigger instead. What runs when does not change (a trigger
 placed after its predecessor in tick order fires on the same tick), but
 py_trees' recursive tick stays far from Python's recursion limit.
 
@@ -127,8 +127,9 @@ class _Walk:
         self.position = {v: i for i, v in enumerate(topological_order(graph))}
         # column walk: predecessors of joins must announce completion
         self.waited = {p for v, d in self.indegree.items() if d > 1 for p in graph.pred[v]}
-        self.heads: list[tuple[int, str, tuple[str, ...], str]] = [
-            (self.position[v], v, tuple(graph.pred[v]), graph.nodes[v]["entry"].join)
+        # (topological position, first entry, predecessors, join, hoisted fork's entry or "")
+        self.heads: list[tuple[int, str, tuple[str, ...], str, str]] = [
+            (self.position[v], v, tuple(graph.pred[v]), graph.nodes[v]["entry"].join, "")
             for v, d in self.indegree.items()
             if d > 1
         ]
@@ -138,36 +139,52 @@ class _Walk:
         node = make_entry_leaf(self.graph.nodes[v]["entry"], self.env, self.registry)
         return Completion(node, self.env, marks=v) if wrap else node
 
-    def chain(self, seq: Sequence, first: str, level: int) -> None:
-        """Row walk from *first*, filling *seq* (which sits at *level*)."""
-        succ, indegree = self.graph.succ, self.indegree
-        stack = [(seq, first, level)]
+    def chain(self, seq: Sequence, first: str, level: int, *, fork_of: str | None = None) -> None:
+        """Row walk from *first*, filling *seq* (which sits at *level*).
+
+        With *fork_of*, *seq* holds a hoisted fork instead: the branches that
+        follow *fork_of* (whose leaf is elsewhere), under one Parallel.
+        """
+        stack: list[tuple[Sequence, str, int]] = []
+        if fork_of is not None:
+            self.fork(_ChainWriter(seq, level), fork_of, self.singles(fork_of), stack)
+        else:
+            stack.append((seq, first, level))
         while stack:
             seq, v, level = stack.pop()
             out = _ChainWriter(seq, level)
             while True:
-                singles = [s for s in succ[v] if indegree[s] == 1]
+                singles = self.singles(v)
                 # fork Parallel, branch Sequence, Completion, leaf: four more levels
                 hoist = len(singles) > 1 and out.level + 4 > self.max_depth
                 out.add(self.leaf(v, wrap=v in self.waited or hoist))
                 if not singles:
                     break
                 if hoist:
-                    for s in singles:
-                        heapq.heappush(self.heads, (self.position[s], s, (v,), "all"))
+                    position = min(self.position[s] for s in singles)
+                    heapq.heappush(self.heads, (position, singles[0], (v,), "all", v))
                     break
                 if len(singles) == 1:
                     v = singles[0]
                     continue
-                fork = Parallel(f"fork {v}", _all())
-                fork_level = out.add(fork)
-                branches = []
-                for s in singles:
-                    branch = Sequence(f"chain {s}", memory=True)
-                    fork.add_child(branch)
-                    branches.append((branch, s, fork_level + 2))
-                stack.extend(reversed(branches))
+                self.fork(out, v, singles, stack)
                 break
+
+    def singles(self, v: str) -> list[str]:
+        """Successors of *v* that have no other predecessor (they continue *v*'s Sequence)."""
+        indegree = self.indegree
+        return [s for s in self.graph.succ[v] if indegree[s] == 1]
+
+    def fork(self, out: _ChainWriter, v: str, singles: list[str], stack: list[tuple[Sequence, str, int]]) -> None:
+        """Append ``Parallel(fork v)`` with one branch Sequence per successor; queue the branches."""
+        fork = Parallel(f"fork {v}", _all())
+        level = out.add(fork)
+        branches = []
+        for s in singles:
+            branch = Sequence(f"chain {s}", memory=True)
+            fork.add_child(branch)
+            branches.append((branch, s, level + 2))
+        stack.extend(reversed(branches))
 
     def build(self) -> Parallel:
         root = Parallel("timeline", _all())
@@ -179,11 +196,11 @@ class _Walk:
                 roots.add_child(seq)
                 self.chain(seq, v, self.depth + 3)
         while self.heads:
-            _, v, preds, join = heapq.heappop(self.heads)
-            kind = "join" if len(preds) > 1 else "chain"
-            seq = Sequence(f"{kind} {v}", memory=True, children=[Trigger(self.env, preds, join)])
+            _, v, preds, join, fork_of = heapq.heappop(self.heads)
+            name = f"after {fork_of}" if fork_of else f"join {v}"
+            seq = Sequence(name, memory=True, children=[Trigger(self.env, preds, join)])
             root.add_child(seq)
-            self.chain(seq, v, self.depth + 1)
+            self.chain(seq, v, self.depth + 1, fork_of=fork_of or None)
         return root
 
 

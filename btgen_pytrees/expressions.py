@@ -29,6 +29,7 @@ True
 from __future__ import annotations
 
 import ast
+import keyword
 import math
 import re
 from dataclasses import dataclass, field
@@ -40,8 +41,8 @@ MAX_LENGTH = 1000
 """Longest accepted expression, in characters (keeps parsing and products bounded)."""
 
 FUNCTIONS: dict[str, Any] = {"abs": abs, "min": min, "max": max}
-RESERVED = frozenset({"and", "or", "not", "true", "false", "True", "False", *FUNCTIONS})
-"""Words that cannot be used as signal names."""
+RESERVED = frozenset({"true", "false", *FUNCTIONS, *keyword.kwlist})
+"""Words that cannot be used as signal names (no expression could read them)."""
 
 _TOKEN = re.compile(
     r"""

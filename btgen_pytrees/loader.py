@@ -168,7 +168,10 @@ def _value_problems(data: Any) -> Iterator[Problem]:
 
 
 def _short(text: str) -> str:
-    return text if len(text) <= _MESSAGE_LIMIT else text[: _MESSAGE_LIMIT - 1] + "…"
+    # Cut the middle, not the end: messages like "'dd…dd' is too long" end with the reason
+    # (fuzz finding: a 10 MB description was reported as just "'ddd…").
+    half = _MESSAGE_LIMIT // 2
+    return text if len(text) <= _MESSAGE_LIMIT else text[:half] + "…" + text[-(half - 1) :]
 
 
 def _shown(value: Any) -> str:
@@ -245,7 +248,9 @@ class _Checker:
         return expr
 
     def signal(self, name: str, path: tuple[PathPart, ...]) -> None:
-        if self.declares_signals and name not in self.signals:
+        if name in RESERVED:
+            self.add(path, f"{name!r} is a reserved word of expressions, not a signal name", "signal")
+        elif self.declares_signals and name not in self.signals:
             self.add(path, f"unknown signal {name!r}{_suggest(name, self.signals)}", "signal")
 
     def check_signals(self) -> None:
@@ -293,7 +298,7 @@ class _Checker:
                 self.add(path, f"{pred!r} cannot come after itself", "graph")
             elif pred in seen:
                 self.add(path, f"{pred!r} is listed twice", "graph")
-            elif pred in criteria_ids:
+            elif pred not in execute_ids and pred in criteria_ids:
                 self.add(path, f"{pred!r} is an oracle criterion, not an execute entry", "graph")
             elif pred not in execute_ids:
                 self.add(path, f"unknown id {pred!r}{_suggest(pred, execute_ids)}", "graph")

@@ -214,3 +214,10 @@ def test_cli_run_exit_codes_and_outputs(tmp_path: pathlib.Path, fig1_path: str) 
     assert json.loads((tmp_path / "r.json").read_text())["verdict"] == "pass"
     failing = ROOT / "examples" / "fig1_failing.json"
     assert main(["run", str(failing)]) == 1
+
+
+def test_until_timeout_message_keeps_the_evaluation_error() -> None:
+    report = run_case(case(entry("U", action="until", expect="1 / zero > 0", timeout=0.2), signals={"zero": 0}))
+    assert report.execute[0].message == "1 / zero > 0 still false after 0.2 s (zero=0): division by zero in '1 / zero > 0'"
+    report = run_case(case(entry("U", action="until", expect="false", timeout=0.2)))
+    assert report.execute[0].message == "false still false after 0.2 s"

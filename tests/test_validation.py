@@ -217,3 +217,22 @@ def test_cli_validate_many(tmp_path: Any, fig1_path: str) -> None:
     assert result.returncode == 2
     assert f"{fig1_path}: ok" in result.stdout and f"{bad}: /: missing required key" in result.stderr
     assert cli("validate", fig1_path).returncode == 0
+
+
+@pytest.mark.parametrize("name", ["lambda", "None", "in", "max"])
+def test_python_keywords_and_functions_are_not_signal_names(name: str) -> None:
+    assert only(case(entry("A"), signals={name: 1}))[0] == f"/signals/{name}"
+    assert only(case(entry("A", action="set", signal=name, value=1)))[0] == "/execute/0/params/signal"
+
+
+def test_id_with_trailing_newline_is_rejected() -> None:
+    assert only(case(entry("A\n")))[0] == "/execute/0/id"
+
+
+def test_entry_id_shared_with_a_criterion_is_only_a_duplicate() -> None:
+    data = case(entry("A"), entry("B", ["A"]), criteria=[crit("A", "final", "true")])
+    assert problems(data) == [("/oracle/criteria/0/id", "duplicate id 'A' (first used at /execute/0/id)")]
+
+
+def test_builtin_criteria_take_no_params() -> None:
+    assert only(case(entry("A"), criteria=[crit("F", "final", "true", params={"x": 1})]))[0] == "/oracle/criteria/0/params"

@@ -14,7 +14,7 @@ from .registry import Registry
 __all__ = ["register_builtins", "PARAMS"]
 
 _SECONDS = {"type": "number", "minimum": 0, "description": "seconds, >= 0"}
-_SIGNAL = {"type": "string", "pattern": "^[A-Za-z][A-Za-z0-9_]*$", "description": "a signal name"}
+_SIGNAL = {"type": "string", "pattern": "^[A-Za-z][A-Za-z0-9_]*(?![\\s\\S])", "description": "a signal name"}
 _VALUE = {"type": ["number", "boolean"]}
 
 
@@ -50,7 +50,8 @@ def register_builtins(registry: Registry) -> Registry:
                       description="succeed after 'duration'")  # fmt: skip
     registry.register("until", simulated.Until, kind=constraint, params_schema=PARAMS["until"],
                       expressions=("expect",), description="succeed once 'expect' holds; fail after 'timeout'")  # fmt: skip
-    registry.register(None, oracles.Record, kind="record", description="expect holds on every tick")
-    registry.register(None, oracles.Period, kind="period", description="expect holds on every tick of a window")
-    registry.register(None, oracles.Final, kind="final", description="expect holds at one instant")
+    no_params = {"type": "object", "maxProperties": 0, "description": "built-in criteria take no params"}
+    registry.register(None, oracles.Record, kind="record", params_schema=no_params, description="expect holds on every tick")
+    registry.register(None, oracles.Period, kind="period", params_schema=no_params, description="expect holds on every tick of a window")
+    registry.register(None, oracles.Final, kind="final", params_schema=no_params, description="expect holds at one instant")
     return registry

@@ -112,7 +112,7 @@ class Period(Oracle):
         if end is not None and reached(now, end):
             return self.succeed(now, f"held from {start:g} s to {end:g} s")
         if end is None and self.env.execute_done():
-            return self.succeed(now, f"held from {start:g} s until execute finished at {now:.6g} s")
+            return self.succeed(now, f"held from {start:g} s to {now:.6g} s (the execute subtree had finished)")
         return Status.RUNNING
 
 

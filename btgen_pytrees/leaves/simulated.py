@@ -110,16 +110,17 @@ class Until(SimulatedLeaf):
     def update(self) -> Status:
         expect = self.entry.expressions["expect"]
         values = self.env.values(expect.names)
+        why = ""
         try:
             ok = bool(expect.evaluate(values))
         except ExpressionError as exc:
-            ok, self.feedback_message = False, str(exc)
+            ok, why = False, f": {exc}"
         if ok:
             self.feedback_message = f"{expect.source} held at {self.env.now():.6g} s"
             return Status.SUCCESS
         timeout = self.params.get("timeout")
         if timeout is not None and reached(self.elapsed(), timeout):
             shown = ", ".join(f"{k}={v!r}" for k, v in sorted(values.items()))
-            self.feedback_message = f"{expect.source} still false after {timeout} s ({shown})"
+            self.feedback_message = f"{expect.source} still false after {timeout} s" + (f" ({shown})" if shown else "") + why
             return Status.FAILURE
         return Status.RUNNING

@@ -156,21 +156,20 @@ def test_embedded_under_a_host_root_with_visitors_and_rerun() -> None:
     assert tick_until_done() == first and generated.status == Status.SUCCESS
 
 
-def test_library_leaves_host_global_state_alone(fig1_path: str) -> None:
-    py_trees.blackboard.Blackboard.set("/host/key", 42)
-    before = (
+def host_state() -> tuple[Any, ...]:
+    """Everything a host owns that the library must leave alone."""
+    return (
         sys.getrecursionlimit(), logging.getLogger().level, list(logging.getLogger().handlers),
         py_trees.logging.level, dict(logging.Logger.manager.loggerDict),
         {k: v for k, v in py_trees.blackboard.Blackboard.storage.items() if not k.startswith("/btgen_pytrees/")},
         dict(py_trees.blackboard.Blackboard.clients), py_trees.blackboard.Blackboard.activity_stream,
     )  # fmt: skip
+
+
+def test_library_leaves_host_global_state_alone(fig1_path: str) -> None:
+    py_trees.blackboard.Blackboard.set("/host/key", 42)
+    before = host_state()
     loaded = btgen_pytrees.load(fig1_path)
     assert run(loaded).verdict == "pass"
     btgen_pytrees.generate(loaded).tick_once()
-    after = (
-        sys.getrecursionlimit(), logging.getLogger().level, list(logging.getLogger().handlers),
-        py_trees.logging.level, dict(logging.Logger.manager.loggerDict),
-        {k: v for k, v in py_trees.blackboard.Blackboard.storage.items() if not k.startswith("/btgen_pytrees/")},
-        dict(py_trees.blackboard.Blackboard.clients), py_trees.blackboard.Blackboard.activity_stream,
-    )  # fmt: skip
-    assert before == after
+    assert host_state() == before

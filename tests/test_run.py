@@ -221,3 +221,20 @@ def test_until_timeout_message_keeps_the_evaluation_error() -> None:
     assert report.execute[0].message == "1 / zero > 0 still false after 0.2 s (zero=0): division by zero in '1 / zero > 0'"
     report = run_case(case(entry("U", action="until", expect="false", timeout=0.2)))
     assert report.execute[0].message == "false still false after 0.2 s"
+
+
+def test_a_leaf_that_raises_gives_verdict_error_not_a_traceback() -> None:
+    from btgen_pytrees.leaves import default_registry
+
+    class Broken(py_trees.behaviour.Behaviour):
+        def __init__(self, e: Any, env: Any) -> None:
+            super().__init__(name=e.name)
+
+        def update(self) -> py_trees.common.Status:
+            raise RuntimeError("motor driver offline")
+
+    registry = default_registry()
+    registry.register("broken", Broken)
+    report = run(btgen_pytrees.load(case(entry("A"), entry("B", ["A"], action="broken")), registry=registry), registry=registry)
+    assert (report.verdict, report.duration, report.message) == ("error", 1.0, "B raised RuntimeError: motor driver offline")
+    assert [(e.status, e.start, e.end) for e in report.execute] == [("success", 0.0, 1.0), ("failure", 1.0, 1.0)]

@@ -71,6 +71,21 @@ class _Recorder:
                 self.trace(f"{now:10.3f}  {result.status:8s}{result.id}" + (f"  {result.message}" if result.message else ""))
 
 
+    def raised(self, exc: BaseException) -> EntryResult | None:
+        """Mark the entry whose leaf raised *exc* (found on the traceback) as failed, and return it."""
+        culprit = None
+        tb = exc.__traceback__
+        while tb is not None:
+            result = self.results.get(id(tb.tb_frame.f_locals.get("self")))
+            culprit = result if result is not None else culprit
+            tb = tb.tb_next
+        if culprit is not None:
+            now = self.clock.now()
+            culprit.start = now if culprit.start is None else culprit.start
+            culprit.end, culprit.status, culprit.message = now, "failure", f"{type(exc).__name__}: {exc}"
+        return culprit
+
+
 def run_tree(
     root: py_trees.behaviour.Behaviour,
     case: TestCase,
@@ -93,6 +108,9 @@ def run_tree(
                 see(node)
         except Exception as exc:  # a leaf raised: report it, never a traceback
             verdict, message = "error", f"{type(exc).__name__}: {exc}"
+            culprit = recorder.raised(exc)
+            if culprit is not None:
+                message = f"{culprit.id} raised {message}"
             break
         if root.status in _DONE:
             verdict = "pass" if root.status == Status.SUCCESS else "fail"

@@ -19,7 +19,7 @@ from .construct import generate
 from .errors import InvalidTestCase
 from .leaves import PluginError, Registry, default_registry
 from .loader import load, schema_text
-from .render import FORMATS, render
+from .render import FORMATS, GraphvizMissing, render
 from .timeline import timeline
 
 __all__ = ["main"]
@@ -36,13 +36,22 @@ def _can_encode(stream: TextIO, text: str = "·…") -> bool:
         return False
 
 
-def _write(text: str, path: str | None) -> None:
+def _write(text: str | bytes, path: str | None) -> None:
     if path is None or path == "-":
-        sys.stdout.write(text)
+        if isinstance(text, bytes):  # png
+            sys.stdout.flush()
+            sys.stdout.buffer.write(text)
+            sys.stdout.buffer.flush()
+        else:
+            sys.stdout.write(text)
         return
     tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(text)
+    if isinstance(text, bytes):
+        with open(tmp, "wb") as fh:
+            fh.write(text)
+    else:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
     os.replace(tmp, path)
 
 
@@ -60,7 +69,11 @@ def cmd_show(args: argparse.Namespace) -> int:
     registry = _registry(args)
     case = load(args.file, registry=registry)
     fmt = args.format or ("unicode" if args.output or _can_encode(sys.stdout) else "ascii")
-    text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
+    try:
+        text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
+    except GraphvizMissing as missing:  # svg/png without Graphviz: a hint, not a traceback
+        print(f"btgen_pytrees: {missing}", file=sys.stderr)
+        return EXIT_INVALID
     _write(text, args.output)
     return EXIT_OK
 
@@ -84,12 +97,25 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     registry = _registry(args)
     case = load(args.file, registry=registry)
+    if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
+        from .run.plot import PlotUnavailable, plot_format, require_matplotlib
+
+        try:
+            plot_format(args.plot)
+            require_matplotlib()
+        except (ValueError, PlotUnavailable) as problem:
+            print(f"btgen_pytrees: {problem}", file=sys.stderr)
+            return EXIT_INVALID
     trace = (lambda line: print(line, file=sys.stderr)) if args.trace else None
     report = run(case, registry=registry, trace=trace)
     if args.json:
         _write(report.to_json(), args.json)
     if args.junit:
         _write(report.to_junit(), args.junit)
+    if args.plot:
+        from .run.plot import plot_run
+
+        plot_run(report, case, args.plot)
     sys.stdout.write(report.table())
     return EXIT_OK if report.passed else EXIT_FAIL
 
@@ -115,7 +141,7 @@ def _parser() -> argparse.ArgumentParser:
     show.add_argument("file", help="test case JSON file")
     show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: unicode if the terminal can show it, else ascii)")
     show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout")
-    show.add_argument("--max-depth", type=int, metavar="N", help="text formats: show nodes down to depth N only")
+    show.add_argument("--max-depth", type=int, metavar="N", help="text and dot/svg/png formats: show nodes down to depth N only (root = 0); deeper subtrees are collapsed")
     show.set_defaults(func=cmd_show)
 
     validate = sub.add_parser("validate", parents=[plugin], help="check test case files; exit 0 only if all are valid")
@@ -128,6 +154,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML")
     run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")
+    run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; needs the 'plot' extra")
     run.set_defaults(func=cmd_run)
 
     schema = sub.add_parser("schema", help="print the test case JSON Schema")

@@ -1,7 +1,9 @@
-"""Views of a generated tree for review: text, JSON, the adjacency matrix.
+"""Views of a generated tree for review: text, JSON, the adjacency matrix, Graphviz, BT.CPP XML.
 
 :func:`render` is the single entry point the CLI uses; each format lives in its
-own module.
+own module. ``svg`` and ``png`` need Graphviz's ``dot`` program
+(:class:`~.dot.GraphvizMissing` otherwise); ``png`` is the only format that
+returns bytes.
 """
 
 from __future__ import annotations
@@ -13,10 +15,12 @@ import networkx as nx
 import py_trees
 
 from ..timeline import matrix_text
+from .btcpp import format_btcpp
+from .dot import GraphvizMissing, format_dot, format_png, format_svg
 from .info import node_info, walk
 from .text import text_tree
 
-__all__ = ["render", "tree_data", "FORMATS", "text_tree", "node_info"]
+__all__ = ["render", "tree_data", "FORMATS", "text_tree", "node_info", "GraphvizMissing"]
 
 
 def tree_data(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
@@ -51,9 +55,12 @@ def _ascii(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int
     return text_tree(root, unicode=False, max_depth=max_depth)
 
 
-FORMATS: dict[str, Callable[..., str]] = {"unicode": _unicode, "ascii": _ascii, "json": _json, "matrix": _matrix}
+FORMATS: dict[str, Callable[..., str | bytes]] = {
+    "unicode": _unicode, "ascii": _ascii, "json": _json, "matrix": _matrix,
+    "dot": format_dot, "svg": format_svg, "png": format_png, "btcpp": format_btcpp,
+}  # fmt: skip
 
 
-def render(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, fmt: str, **options: Any) -> str:
+def render(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, fmt: str, **options: Any) -> str | bytes:
     """Render *root* (generated from the timeline *graph*) in format *fmt* (a key of :data:`FORMATS`)."""
     return FORMATS[fmt](root, graph, **options)

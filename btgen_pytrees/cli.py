@@ -15,10 +15,12 @@ import sys
 from typing import Callable, Sequence, TextIO
 
 from . import __version__
+from . import batch
 from .construct import generate
-from .errors import InvalidTestCase
+from .errors import InvalidTestCase, Problem
 from .leaves import PluginError, Registry, default_registry
 from .loader import load, schema_text
+from .output import write_file
 from .render import FORMATS, GraphvizMissing, render
 from .timeline import timeline
 
@@ -45,14 +47,7 @@ def _write(text: str | bytes, path: str | None) -> None:
         else:
             sys.stdout.write(text)
         return
-    tmp = f"{path}.tmp{os.getpid()}"
-    if isinstance(text, bytes):
-        with open(tmp, "wb") as fh:
-            fh.write(text)
-    else:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-    os.replace(tmp, path)
+    write_file(path, text)
 
 
 def _report_invalid(error: InvalidTestCase) -> int:
@@ -65,7 +60,48 @@ def _registry(args: argparse.Namespace) -> Registry:
     return default_registry(args.plugin or ())
 
 
+def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.Outcome],
+           job_args: Callable[[int], tuple[object, ...]]) -> int:  # fmt: skip
+    """Process *files* in worker processes, report problems as they would be singly, end with a summary."""
+    if args.out_dir:
+        os.makedirs(args.out_dir, exist_ok=True)
+    outcomes = batch.process(job, [job_args(i) for i in range(len(files))], files,
+                             workers=args.jobs, progress=batch.progress_stream())  # fmt: skip
+    for outcome in outcomes:
+        for line in outcome.problems:
+            print(line, file=sys.stderr)
+    sys.stdout.write(batch.summary(outcomes))
+    return max((o.code for o in outcomes), default=EXIT_OK)
+
+
+def _single(args: argparse.Namespace) -> list[str] | None:
+    """The expanded file list when this is a batch, else None (one file given, not a directory)."""
+    if len(args.files) == 1 and not os.path.isdir(args.files[0]):
+        args.file = args.files[0]
+        return None
+    files = batch.expand(args.files)
+    if not files:
+        raise InvalidTestCase([Problem((), "no *.json files found", "json")], ", ".join(args.files))
+    return files
+
+
+def _targets(args: argparse.Namespace, files: list[str], suffix: str) -> list[str | None]:
+    if not args.out_dir:
+        return [None] * len(files)
+    return [os.path.join(args.out_dir, name) for name in batch.output_names(files, suffix)]
+
+
 def cmd_show(args: argparse.Namespace) -> int:
+    files = _single(args)
+    if files is not None:
+        if args.output:
+            print("btgen_pytrees: -o/--output takes one file; use --out-dir with several", file=sys.stderr)
+            return EXIT_INVALID
+        fmt = args.format or "unicode"
+        suffix = "." + {"unicode": "txt", "ascii": "txt", "matrix": "txt", "btcpp": "xml"}.get(fmt, fmt)
+        targets = _targets(args, files, suffix)
+        return _batch(args, files, batch.job_show,
+                      lambda i: (tuple(args.plugin or ()), fmt, targets[i], args.max_depth))  # fmt: skip
     registry = _registry(args)
     case = load(args.file, registry=registry)
     fmt = args.format or ("unicode" if args.output or _can_encode(sys.stdout) else "ascii")
@@ -79,22 +115,33 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    worst = EXIT_OK
-    registry = _registry(args)
-    for path in args.files:
-        try:
-            case = load(path, registry=registry)
-        except InvalidTestCase as error:
-            worst = max(worst, _report_invalid(error))
-        else:
-            if not args.quiet:
-                print(f"{path}: ok ({len(case.entries)} entries, {len(case.criteria)} criteria)")
-    return worst
+    files = batch.expand(args.files)
+    if not files:
+        print(f"btgen_pytrees: no *.json files in {', '.join(args.files)}", file=sys.stderr)
+        return EXIT_INVALID
+    workers = args.jobs if len(files) > 1 else 1
+    outcomes = batch.process(batch.job_validate, [(tuple(args.plugin or ()),)] * len(files), files,
+                             workers=workers, progress=batch.progress_stream())  # fmt: skip
+    for outcome in outcomes:
+        for line in outcome.problems:
+            print(line, file=sys.stderr)
+        if outcome.code == EXIT_OK and not args.quiet:
+            print(f"{outcome.path}: {outcome.summary}")
+    if len(files) > 1 and not args.quiet:
+        print(batch.summary(outcomes).splitlines()[-1])
+    return max((o.code for o in outcomes), default=EXIT_INVALID)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     from .run import run
 
+    files = _single(args)
+    if files is not None:
+        if args.json or args.junit or args.plot or args.trace:
+            print("btgen_pytrees: --json/--junit/--plot/--trace take one file; use --out-dir with several", file=sys.stderr)
+            return EXIT_INVALID
+        targets = _targets(args, files, "")
+        return _batch(args, files, batch.job_run, lambda i: (tuple(args.plugin or ()), targets[i]))
     registry = _registry(args)
     case = load(args.file, registry=registry)
     if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
@@ -133,24 +180,28 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"btgen_pytrees {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,schema}")
+    many = argparse.ArgumentParser(add_help=False)
+    many.add_argument("--jobs", "-j", type=int, default=os.cpu_count() or 1, metavar="N",
+                      help="with several files: worker processes (default: the number of CPUs)")  # fmt: skip
+    many.add_argument("--out-dir", metavar="DIR", help="with several files: write each file's output into DIR")
     plugin = argparse.ArgumentParser(add_help=False)
     plugin.add_argument("--plugin", action="append", metavar="MODULE",
                         help="import MODULE and call its register(registry) to add leaves (repeatable)")  # fmt: skip
 
-    show = sub.add_parser("show", parents=[plugin], help="print the generated tree (default command)")
-    show.add_argument("file", help="test case JSON file")
+    show = sub.add_parser("show", parents=[plugin, many], help="print the generated tree (default command)")
+    show.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
     show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: unicode if the terminal can show it, else ascii)")
     show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout")
     show.add_argument("--max-depth", type=int, metavar="N", help="text and dot/svg/png formats: show nodes down to depth N only (root = 0); deeper subtrees are collapsed")
     show.set_defaults(func=cmd_show)
 
-    validate = sub.add_parser("validate", parents=[plugin], help="check test case files; exit 0 only if all are valid")
-    validate.add_argument("files", nargs="+", metavar="FILE")
+    validate = sub.add_parser("validate", parents=[plugin, many], help="check test case files; exit 0 only if all are valid")
+    validate.add_argument("files", nargs="+", metavar="FILE", help="test case JSON files or directories")
     validate.add_argument("--quiet", "-q", action="store_true", help="print problems only")
     validate.set_defaults(func=cmd_validate)
 
-    run = sub.add_parser("run", parents=[plugin], help="run the tree on the virtual-clock simulator and print verdicts")
-    run.add_argument("file", help="test case JSON file")
+    run = sub.add_parser("run", parents=[plugin, many], help="run the tree on the virtual-clock simulator and print verdicts")
+    run.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
     run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML")
     run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")

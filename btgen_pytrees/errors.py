@@ -14,12 +14,21 @@ The CLI renders each as ``FILE: /json/pointer: message``.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Iterable, Union
 
 __all__ = ["Problem", "InvalidTestCase", "pointer"]
 
 PathPart = Union[str, int]
+
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f\u2028\u2029]")
+
+
+def _printable(text: str) -> str:
+    """Escape control characters, so a key like ``"a\\nb"`` cannot split a one-line message."""
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 256 else f"\\u{ord(m.group()):04x}", text)
 
 
 def pointer(path: Iterable[PathPart]) -> str:
@@ -48,7 +57,8 @@ class Problem:
         return pointer(self.path)
 
     def render(self, source: str) -> str:
-        return f"{source}: {self.pointer}: {self.message}"
+        """``source: /pointer: message`` on one line (control characters escaped)."""
+        return _printable(f"{source}: {self.pointer}: {self.message}")
 
 
 class InvalidTestCase(ValueError):

@@ -24,6 +24,7 @@ import difflib
 import json
 import math
 import os
+import stat
 import re
 from functools import lru_cache
 from importlib import resources
@@ -92,7 +93,10 @@ def load_json(path: str | os.PathLike[str]) -> Any:
     """Read a JSON file with the limits of a test case; problems raise :class:`InvalidTestCase`."""
     source = os.fspath(path)
     try:
-        size = os.stat(source).st_size
+        info = os.stat(source)
+        if stat.S_ISFIFO(info.st_mode) or stat.S_ISSOCK(info.st_mode):  # opening would wait for a writer
+            raise InvalidTestCase([Problem((), "not a regular file (a pipe or socket)", "json")], source)
+        size = info.st_size
         if size > MAX_FILE_BYTES:
             raise InvalidTestCase([Problem((), f"file is {size} bytes; the limit is {MAX_FILE_BYTES}", "limit")], source)
         with open(source, "rb") as fh:

@@ -1,0 +1,251 @@
+"""The expression language is safe: everything outside it is rejected at load time, and evaluation is bounded.
+
+``expect`` texts come from JSON files anyone may write. Each construct below
+would reach attributes, builtins, imports or unbounded work if the text were
+handed to Python; each must raise :class:`ExpressionError` from
+:func:`~btgen_pytrees.expressions.parse` and be reported by
+:func:`btgen_pytrees.load` at the JSON path of the text - before anything runs.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import pytest
+from helpers import case, crit, entry
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import btgen_pytrees
+from btgen_pytrees import InvalidTestCase
+from btgen_pytrees.expressions import MAX_LENGTH, ExpressionError, parse
+
+REJECTED = {
+    # attribute access
+    "attribute": "speed.__class__",
+    "attribute-of-literal": "1 .real > 0",
+    "attribute-of-tuple": "().__class__",
+    "attribute-of-call": "abs(speed).__class__.__base__",
+    "attribute-of-function": "max.__self__",
+    # dunder and underscore names
+    "import": '__import__("os")',
+    "import-call-chain": "__import__('os').system('true')",
+    "builtins": "__builtins__",
+    "dunder": "__class__ == 0",
+    "underscore": "_speed > 0",
+    # calls other than abs/min/max, and odd calls of those
+    "open": 'open("x")',
+    "eval": "eval(1)",
+    "exec": "exec(speed)",
+    "getattr": "getattr(speed, speed)",
+    "globals": "globals()",
+    "print": "print(speed)",
+    "signal-call": "speed(1)",
+    "call-of-call": "max(1, 2)(3)",
+    "keyword-argument": "max(speed, key=abs)",
+    "starred": "max(1, *speed)",
+    "abs-arity": "abs(1, 2)",
+    "min-arity": "min(1)",
+    "bare-function": "abs",
+    # comprehensions and generators
+    "list-comprehension": "[x for x in y]",
+    "generator": "(x for x in y)",
+    "generator-argument": "max(x for x in y)",
+    # lambdas
+    "lambda-call": "(lambda: 1)()",
+    "lambda": "lambda x: x",
+    # huge powers and products (no power operator, no strings)
+    "power": "2 ** 10 ** 10",
+    "power-small": "2 ** 2",
+    "pow-call": "pow(2, 10)",
+    "string-product": '"a" * 10**9',
+    "string-product-single-quotes": "'a' * 1000000000",
+    "shift": "1 << 10000000",
+    # other syntax outside the language
+    "conditional": "x if y else z",
+    "subscript": "a[0]",
+    "slice": "a[::-1]",
+    "dict": "{}",
+    "set": "{1}",
+    "tuple": "(1, 2)",
+    "empty-tuple": "()",
+    "string": "'fast'",
+    "string-comparison": 'speed == "fast"',
+    "walrus": "(x := 1)",
+    "is": "x is y",
+    "in": "x in y",
+    "not-in": "x not in y",
+    "floor-division": "x // y",
+    "invert": "~x",
+    "matmul": "x @ y",
+    "statement": "x; import os",
+    "newline-statement": "x\nimport os",
+    "await": "await x",
+    "yield": "yield x",
+    "ellipsis": "...",
+    "none": "None",
+    "python-true": "True",
+    # numbers outside the language
+    "hex": "0x10",
+    "huge-hex": "0x" + "f" * 900,
+    "binary": "0b101",
+    "octal": "0o17",
+    "complex": "1j",
+    "glued-keyword": "1or 2",
+    "underscore-digits": "1_000",
+    "infinite": "1e999",
+    "long-literal": "9" * 41,
+    # unicode look-alikes (Python would NFKC-normalise these to ASCII names)
+    "fullwidth": "ｅｖａｌ(1)",
+    "ligature": "ﬁle > 0",
+    "accented": "spéed > 0",
+    # empty and too long
+    "empty": "",
+    "blank": "   ",
+    "too-long": "1" + " " * MAX_LENGTH,
+    # too deep for the parser
+    "parentheses": "(" * 400 + "1" + ")" * 400,
+    "unary-chain": "-" * 999 + "1",
+}
+
+
+@pytest.mark.parametrize("text", list(REJECTED.values()), ids=list(REJECTED))
+def test_rejected_by_parse(text: str) -> None:
+    with pytest.raises(ExpressionError):
+        parse(text)
+
+
+@pytest.mark.parametrize("text", list(REJECTED.values()), ids=list(REJECTED))
+def test_reported_at_load_with_the_json_path(text: str) -> None:
+    data = case(entry("A"), criteria=[crit("R", "record", text)])
+    with pytest.raises(InvalidTestCase) as info:
+        btgen_pytrees.load(data)
+    [problem] = info.value.problems
+    assert problem.pointer == "/oracle/criteria/0/expect"
+    # "" and over-long texts are caught by the schema first, at the same path
+    assert problem.cause == ("schema" if not text or len(text) > MAX_LENGTH else "expression"), problem
+
+
+@pytest.mark.parametrize("text", ["speed.__class__", '__import__("os")', "(lambda: 1)()", "2 ** 10 ** 10", "0x10"])
+def test_rejected_in_until_constraints_too(text: str) -> None:
+    data = case(entry("C", action="until", expect=text))
+    with pytest.raises(InvalidTestCase) as info:
+        btgen_pytrees.load(data)
+    assert [(p.pointer, p.cause) for p in info.value.problems] == [("/execute/0/params/expect", "expression")]
+
+
+def test_non_strings_are_rejected() -> None:
+    for value in (1, None, b"1", ["x"]):
+        with pytest.raises(ExpressionError):
+            parse(value)  # type: ignore[arg-type]
+
+
+def test_nothing_runs_at_load(tmp_path: Any, monkeypatch: Any) -> None:
+    """A rejected text has no side effect: the file it would create does not appear."""
+    monkeypatch.chdir(tmp_path)
+    text = "__import__('os').system('touch pwned')"
+    with pytest.raises(InvalidTestCase):
+        btgen_pytrees.load(case(entry("A"), criteria=[crit("R", "record", text)]))
+    assert not (tmp_path / "pwned").exists()
+
+
+def test_evaluation_has_no_builtins() -> None:
+    """Even a checked tree runs with empty builtins: a signal named like a builtin is just a value."""
+    expr = parse("open + len > 0")
+    assert sorted(expr.names) == ["len", "open"]
+    assert expr.evaluate({"open": 1, "len": 1}) is True
+    with pytest.raises(ExpressionError, match="has no value"):
+        expr.evaluate({})
+
+
+# ---------------------------------------------------------------------------
+# evaluation is bounded
+
+
+def _timed(text: str, values: dict[str, Any]) -> tuple[Any, float]:
+    expr = parse(text)
+    start = time.perf_counter()
+    result = expr.evaluate(values)
+    return result, time.perf_counter() - start
+
+
+def test_longest_literal_product_is_quick() -> None:
+    text = "9999999999 * " * 76 + "1"
+    assert len(text) <= MAX_LENGTH
+    result, seconds = _timed(text, {})
+    assert result == 9999999999**76 and seconds < 0.1
+
+
+def test_longest_signal_product_is_quick() -> None:
+    """Without a power operator, a product grows by at most one operand per factor.
+
+    The loader accepts integers up to float range (about 2**1024), so the worst
+    product of MAX_LENGTH characters has ~250 factors of 1024 bits each.
+    """
+    text = "s * " * 249 + "s"
+    assert len(text) <= MAX_LENGTH
+    result, seconds = _timed(text, {"s": 2**1023})
+    assert result == 2 ** (1023 * 250) and seconds < 0.5
+    assert _timed(text, {"s": 1e308})[0] == float("inf")
+
+
+def test_largest_integer_signal_the_loader_accepts() -> None:
+    ok = case(entry("A"), signals={"s": 2**1023})
+    btgen_pytrees.load(ok)
+    with pytest.raises(InvalidTestCase) as info:
+        btgen_pytrees.load(case(entry("A"), signals={"s": 2**1024}))
+    assert [(p.pointer, p.cause) for p in info.value.problems] == [("/signals/s", "limit")]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "not " * 249 + "x",
+        "1 + " * 249 + "1",
+        "(" * 150 + "x" + ")" * 150,
+        "max(" * 100 + "1" + ", 1)" * 100,
+        " < ".join(["x"] * 250),
+        "&&".join(["x>0"] * 200),
+    ],
+    ids=["not-chain", "sum-chain", "parentheses", "nested-max", "comparison-chain", "and-chain"],
+)
+def test_longest_accepted_shapes_parse_and_evaluate_quickly(text: str) -> None:
+    assert len(text) <= MAX_LENGTH
+    start = time.perf_counter()
+    result, _ = _timed(text, {"x": 1})
+    assert time.perf_counter() - start < 0.5
+    assert isinstance(result, (bool, int, float))
+
+
+def test_arithmetic_errors_surface_as_expression_errors() -> None:
+    for text in ("1 / 0", "x % 0", "max(x, 1) / (x - x)"):
+        with pytest.raises(ExpressionError):
+            parse(text).evaluate({"x": 1})
+    with pytest.raises(ExpressionError):
+        parse("x * 1.0").evaluate({"x": 2**1100})  # not a value the loader lets through; still no crash
+
+
+ALPHABET = "sx01239.e+-*/%<>=!&|() ,_abcdmnortu'\"[]{}:;@~^\\\n"
+
+
+@settings(max_examples=300, deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    text=st.text(alphabet=ALPHABET, max_size=80)
+    | st.lists(st.sampled_from(["s", "x", "1", "1e308", "9" * 40, "(", ")", "-", "*", "/", "%", "<", "==", "&&", "||",
+                                "!", "not", "and", "max(", "min(", "abs(", ",", " "]), max_size=300).map("".join),  # fmt: skip
+    s=st.one_of(st.integers(-(2**1023), 2**1023), st.floats(allow_nan=False), st.booleans()),
+)
+def test_parse_and_evaluate_never_crash(text: str, s: Any) -> None:
+    """Any text: parse() returns or raises ExpressionError; a parsed text evaluates or raises ExpressionError, quickly."""
+    start = time.perf_counter()
+    try:
+        expr = parse(text)
+    except ExpressionError:
+        return
+    assert all(name.isidentifier() and name.isascii() and not name.startswith("_") for name in expr.names)
+    try:
+        expr.evaluate({name: s for name in expr.names})
+    except ExpressionError:
+        pass
+    assert time.perf_counter() - start < 1

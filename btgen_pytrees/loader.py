@@ -31,12 +31,12 @@ from importlib import resources
 from types import MappingProxyType
 from typing import Any, Iterable, Iterator, Mapping
 
-import jsonschema
 import networkx as nx
 
 from .errors import InvalidTestCase, PathPart, Problem
 from .expressions import RESERVED, Expression, ExpressionError, parse
 from .leaves import Registry, default_registry
+from .validation import SchemaValidator
 from .model import Criterion, Entry, TestCase
 
 __all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS"]
@@ -90,8 +90,8 @@ def inline_refs(node: Any, root: Mapping[str, Any], depth: int = 0) -> Any:
 
 
 @lru_cache(maxsize=1)
-def _validator() -> jsonschema.Draft202012Validator:
-    return jsonschema.Draft202012Validator(inline_refs(schema(), schema()))
+def _validator() -> SchemaValidator:
+    return SchemaValidator(inline_refs(schema(), schema()))
 
 
 # ---------------------------------------------------------------------------
@@ -126,7 +126,9 @@ def load_json(path: str | os.PathLike[str]) -> Any:
         if size > MAX_FILE_BYTES:
             raise InvalidTestCase([Problem((), f"file is {size} bytes; the limit is {MAX_FILE_BYTES}", "limit")], source)
         with open(source, "rb") as fh:
-            raw = fh.read(MAX_FILE_BYTES + 1)
+            raw = fh.read((size or MAX_FILE_BYTES) + 1)  # size 0: a device such as /dev/zero
+            if size and len(raw) > size:  # it grew since stat(): read on, up to the limit
+                raw += fh.read(MAX_FILE_BYTES + 1 - len(raw))
     except OSError as exc:
         raise InvalidTestCase([Problem((), f"cannot read file: {exc.strerror or exc}", "json")], source) from None
     if len(raw) > MAX_FILE_BYTES:  # the file grew while we looked
@@ -169,28 +171,41 @@ def parse_json(raw: bytes | str, source: str = "<string>") -> Any:
 _SURROGATE = re.compile("[\ud800-\udfff]")
 
 
+def _scalar_problem(path: tuple[PathPart, ...], value: Any) -> Problem | None:
+    if isinstance(value, str):
+        bad = _SURROGATE.search(value)
+        if bad:
+            return Problem(path, f"not valid Unicode: lone surrogate {ascii(bad.group())} at character {bad.start()}", "json")
+    elif isinstance(value, int) and not isinstance(value, bool):
+        try:
+            float(value)
+        except OverflowError:
+            return Problem(path, f"number too large ({value.bit_length()} bits; the limit is about 1.8e308)", "limit")
+    return None
+
+
 def _value_problems(data: Any) -> Iterator[Problem]:
+    if not isinstance(data, (dict, list)):
+        problem = _scalar_problem((), data)
+        if problem is not None:
+            yield problem
+        return
     stack: list[tuple[tuple[PathPart, ...], Any]] = [((), data)]
-    while stack:  # iterative: no recursion limit to hit
-        path, value = stack.pop()
-        if isinstance(value, str):
-            bad = _SURROGATE.search(value)
-            if bad:
-                yield Problem(path, f"not valid Unicode: lone surrogate {ascii(bad.group())} at character {bad.start()}", "json")
-        elif isinstance(value, int) and not isinstance(value, bool):
-            try:
-                float(value)
-            except OverflowError:
-                yield Problem(path, f"number too large ({value.bit_length()} bits; the limit is about 1.8e308)", "limit")
-        elif isinstance(value, (dict, list)):
-            if len(path) >= MAX_NESTING:
-                yield Problem(path, f"nested more than {MAX_NESTING} levels deep", "limit")
+    while stack:  # iterative: no recursion limit to hit; paths are built for containers only
+        path, container = stack.pop()
+        if len(path) >= MAX_NESTING:
+            yield Problem(path, f"nested more than {MAX_NESTING} levels deep", "limit")
+            continue
+        for key, item in container.items() if isinstance(container, dict) else enumerate(container):
+            if isinstance(key, str) and _SURROGATE.search(key):
+                yield Problem(path, f"not valid Unicode: key {ascii(key)[:_MESSAGE_LIMIT]} has a lone surrogate", "json")
                 continue
-            for key, item in value.items() if isinstance(value, dict) else enumerate(value):
-                if isinstance(key, str) and _SURROGATE.search(key):
-                    yield Problem(path, f"not valid Unicode: key {ascii(key)[:_MESSAGE_LIMIT]} has a lone surrogate", "json")
-                    continue
+            if isinstance(item, (dict, list)):
                 stack.append(((*path, key), item))
+            elif isinstance(item, (str, int)):
+                problem = _scalar_problem((*path, key), item)
+                if problem is not None:
+                    yield problem
 
 
 # ---------------------------------------------------------------------------
@@ -321,7 +336,7 @@ class _Checker:
         return entries
 
     def _after(self, i: int, raw: Mapping[str, Any], execute_ids: set[str], criteria_ids: set[str]) -> tuple[str, ...]:
-        seen: list[str] = []
+        seen: dict[str, None] = {}  # ordered, O(1) membership
         for k, pred in enumerate(raw.get("after", [])):
             path = ("execute", i, "after", k)
             if pred == raw["id"]:
@@ -333,7 +348,7 @@ class _Checker:
             elif pred not in execute_ids:
                 self.add(path, f"unknown id {pred!r}{_suggest(pred, execute_ids)}", "graph")
             else:
-                seen.append(pred)
+                seen[pred] = None
         return tuple(seen)
 
     def _leaf(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> dict[str, Expression]:

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Callable, Mapping, Union
 
-import jsonschema
 import py_trees
 
 from ..model import Criterion, Entry
+from ..validation import SchemaValidator
 from .environment import Environment
 
 __all__ = ["Factory", "LeafType", "Registry", "KINDS"]
@@ -53,12 +53,10 @@ class LeafType:
     description: str = ""
 
     @cached_property
-    def params_validator(self) -> jsonschema.protocols.Validator | None:
+    def params_validator(self) -> SchemaValidator | None:
         if self.params_schema is None:
             return None
-        cls = jsonschema.validators.validator_for(self.params_schema, default=jsonschema.Draft202012Validator)
-        cls.check_schema(self.params_schema)
-        return cls(self.params_schema)
+        return SchemaValidator(self.params_schema)
 
 
 class Registry:

@@ -1,0 +1,87 @@
+"""JSON Schema checks: jsonschema for the errors, fastjsonschema for the yes/no.
+
+Most test cases are valid. For them the loader only needs to know *that* the
+document fits the schema, and fastjsonschema (which compiles a schema to Python
+code) answers that 10-25 times faster than jsonschema walks it (see
+``docs/performance.md``). Only a document it rejects is walked by jsonschema,
+whose errors (with JSON paths, all of them) are what users see. Both use
+Python's ``re`` for ``pattern``, so they agree on strings; the fast path is used
+only for schemas written in the draft-07 vocabulary both implement the same way
+(no ``$ref``, no 2019-09/2020-12 keywords), and ``tests/test_validation_fastpath.py``
+checks the two agree on fuzzed documents.
+
+>>> v = SchemaValidator({"type": "object", "required": ["a"]})
+>>> [e.message for e in v.iter_errors({})]
+["'a' is a required property"]
+>>> list(v.iter_errors({"a": 1}))
+[]
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Iterator, Mapping
+
+import jsonschema
+
+__all__ = ["SchemaValidator"]
+
+_NEWER_KEYWORDS = frozenset({
+    "$ref", "$dynamicRef", "$dynamicAnchor", "$recursiveRef", "$recursiveAnchor", "$anchor",
+    "prefixItems", "unevaluatedProperties", "unevaluatedItems", "dependentRequired",
+    "dependentSchemas", "minContains", "maxContains", "format",
+})  # fmt: skip
+
+
+def _draft7_compatible(node: Any) -> bool:
+    stack = [node]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            if _NEWER_KEYWORDS & item.keys() or isinstance(item.get("items"), list):
+                return False
+            stack.extend(v for k, v in item.items() if k not in ("enum", "const", "default", "examples"))
+        elif isinstance(item, list):
+            stack.extend(item)
+    return True
+
+
+def _compile_fast(schema: Mapping[str, Any]) -> Callable[[Any], Any] | None:
+    try:
+        import fastjsonschema
+    except ImportError:  # optional speed-up: jsonschema alone gives the same answers
+        return None
+    if not _draft7_compatible(schema):
+        return None
+    draft7 = {**schema, "$schema": "http://json-schema.org/draft-07/schema#"}
+    try:
+        return fastjsonschema.compile(draft7)  # type: ignore[no-any-return]
+    except Exception:  # noqa: BLE001 - anything it cannot compile is left to jsonschema
+        return None
+
+
+class SchemaValidator:
+    """Validate against one schema; :meth:`iter_errors` as jsonschema's, but fast when valid."""
+
+    def __init__(self, schema: Mapping[str, Any]):
+        cls = jsonschema.validators.validator_for(schema, default=jsonschema.Draft202012Validator)
+        cls.check_schema(schema)
+        self.full = cls(schema)
+        self.fast = _compile_fast(schema)
+
+    def is_valid(self, data: Any) -> bool:
+        if self.fast is not None:
+            try:
+                self.fast(data)
+                return True
+            except Exception:  # noqa: BLE001 - rejected (or confused): ask jsonschema
+                pass
+        return bool(self.full.is_valid(data))
+
+    def iter_errors(self, data: Any) -> Iterator[jsonschema.ValidationError]:
+        if self.fast is not None:
+            try:
+                self.fast(data)
+                return iter(())
+            except Exception:  # noqa: BLE001
+                pass
+        return self.full.iter_errors(data)

@@ -57,12 +57,12 @@ def generate(
     """
     registry = registry if registry is not None else default_registry()
     env = Environment(namespace or unique_namespace(case.name), clock, case.signals)
-    execute = Completion(
-        execute_subtree(timeline(case), env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth),
-        env,
-        marks=EXECUTE,
-        name="execute",
-    )
+    graph = timeline(case)
+    try:
+        walked = execute_subtree(graph, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth)
+    finally:
+        graph.clear()  # networkx caches views that refer back to the graph: free it now, not at the next gc
+    execute = Completion(walked, env, marks=EXECUTE, name="execute")
     oracle, others = oracle_subtree(case.criteria, dict(case.relation), env, registry)
     children: list[Any] = [execute] if oracle is None else [execute, oracle]
     exit_condition = oracle if others is not None else execute

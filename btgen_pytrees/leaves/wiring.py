@@ -86,17 +86,28 @@ class Trigger(py_trees.behaviour.Behaviour):
         self.env = env
         self.waits_for = tuple(waits_for)
         self.join = join
+        self.cursor = 0
+
+    def initialise(self) -> None:
+        self.cursor = 0  # `all`: the predecessors before it are known to be done
+        shown = ", ".join(self.waits_for[:4]) + (f" (+{len(self.waits_for) - 4})" if len(self.waits_for) > 4 else "")
+        self.feedback_message = f"waiting for {self.join} of {shown}"
 
     def update(self) -> Status:
         is_done = self.env.is_done
         if self.join == "any":
             fired = any(is_done(p) for p in self.waits_for)
         else:
-            fired = all(is_done(p) for p in self.waits_for)
+            # done flags stay set for the rest of a run, so resume where the last tick stopped:
+            # a join over n predecessors costs O(n) per run, not per tick
+            waits_for, cursor = self.waits_for, self.cursor
+            while cursor < len(waits_for) and is_done(waits_for[cursor]):
+                cursor += 1
+            self.cursor = cursor
+            fired = cursor == len(waits_for)
         if fired:
             self.feedback_message = "fired"
             return Status.SUCCESS
-        self.feedback_message = f"waiting for {self.join} of {', '.join(self.waits_for)}"
         return Status.RUNNING
 
 

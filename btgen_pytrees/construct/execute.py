@@ -39,10 +39,9 @@ from py_trees.composites import Parallel, Sequence
 
 from ..leaves import Environment, Registry
 from ..leaves.wiring import Completion, RunStart, Trigger
-from ..model import Entry
 from ..timeline import topological_order
 
-__all__ = ["execute_subtree", "make_entry_leaf", "MAX_DEPTH", "EXECUTE_DEPTH"]
+__all__ = ["execute_subtree", "MAX_DEPTH", "EXECUTE_DEPTH"]
 
 MAX_DEPTH = 100
 """Deepest level any generated node may sit at (the generated root is level 1)."""
@@ -56,18 +55,6 @@ EXECUTE_DEPTH = 3
 
 def _all() -> py_trees.common.ParallelPolicy.Base:
     return py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=True)
-
-
-def make_entry_leaf(entry: Entry, env: Environment, registry: Registry) -> py_trees.behaviour.Behaviour:
-    """Build the leaf for *entry* with its registered factory, tagged with ``btgen_entry``."""
-    leaf_type = registry.get(entry.kind, entry.action)
-    if leaf_type is None:
-        raise LookupError(f"no leaf registered for {entry.kind} action {entry.action!r}")
-    node = leaf_type.factory(entry, env)
-    if not isinstance(node, py_trees.behaviour.Behaviour):
-        raise TypeError(f"the factory for {entry.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
-    node.btgen_entry = entry  # type: ignore[attr-defined]
-    return node
 
 
 class _ChainWriter:
@@ -136,7 +123,7 @@ class _Walk:
         heapq.heapify(self.heads)
 
     def leaf(self, v: str, wrap: bool) -> py_trees.behaviour.Behaviour:
-        node = make_entry_leaf(self.graph.nodes[v]["entry"], self.env, self.registry)
+        node = self.registry.build(self.graph.nodes[v]["entry"], self.env)
         return Completion(node, self.env, marks=v) if wrap else node
 
     def chain(self, seq: Sequence, first: str, level: int, *, fork_of: str | None = None) -> None:

@@ -28,25 +28,13 @@ from ..leaves import Environment, Registry
 from ..leaves.wiring import OrMember
 from ..model import Criterion
 
-__all__ = ["oracle_subtree", "make_criterion_leaf"]
+__all__ = ["oracle_subtree"]
 
 Policy = py_trees.common.ParallelPolicy
 
 
-def make_criterion_leaf(criterion: Criterion, env: Environment, registry: Registry) -> py_trees.behaviour.Behaviour:
-    """Build the leaf for *criterion* with its registered factory, tagged with ``btgen_criterion``."""
-    leaf_type = registry.get(criterion.type, criterion.action)
-    if leaf_type is None:
-        raise LookupError(f"no leaf registered for {criterion.type!r} criteria with action {criterion.action!r}")
-    node = leaf_type.factory(criterion, env)
-    if not isinstance(node, py_trees.behaviour.Behaviour):
-        raise TypeError(f"the factory for {criterion.type!r} returned {type(node).__name__}, not a py_trees Behaviour")
-    node.btgen_criterion = criterion  # type: ignore[attr-defined]
-    return node
-
-
 def _group(label: str, criteria: Seq[Criterion], relation: str, env: Environment, registry: Registry) -> Parallel:
-    leaves = [make_criterion_leaf(c, env, registry) for c in criteria]
+    leaves = [registry.build(c, env) for c in criteria]
     if relation == "||":
         ids = [c.id for c in criteria]
         members = [OrMember(leaf, env, c.id, ids) for leaf, c in zip(leaves, criteria)]

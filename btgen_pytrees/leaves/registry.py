@@ -97,6 +97,27 @@ class Registry:
         """Sorted action names registered for *kind*."""
         return sorted(a for (k, a) in self._types if k == kind and a is not None)
 
+    def build(self, item: Entry | Criterion, env: Environment) -> py_trees.behaviour.Behaviour:
+        """The leaf for an execute entry or a criterion, made by its registered factory.
+
+        The leaf is tagged with its item (``btgen_entry`` or ``btgen_criterion``),
+        which is how views and reports find the entry a leaf stands for.
+
+        Raises:
+            LookupError: nothing is registered for the item's (kind, action)
+            TypeError: the factory did not return a py_trees Behaviour
+        """
+        is_entry = isinstance(item, Entry)
+        kind = item.kind if is_entry else item.type  # type: ignore[union-attr]
+        leaf_type = self.get(kind, item.action)
+        if leaf_type is None:
+            raise LookupError(f"no leaf registered for {kind} action {item.action!r}")
+        node = leaf_type.factory(item, env)
+        if not isinstance(node, py_trees.behaviour.Behaviour):
+            raise TypeError(f"the factory for {kind} {item.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
+        setattr(node, "btgen_entry" if is_entry else "btgen_criterion", item)
+        return node
+
     def copy(self) -> "Registry":
         return Registry(self._types)
 

@@ -1,0 +1,77 @@
+"""The benchmark code must keep running: every shape, the floor, the tick and schema jobs, at n=50.
+
+This does not check speed (the suite's machine is shared and noisy); it checks
+that ``python -m benchmarks.run`` still works against the current core, that
+the synthetic timelines are what their names say, and that the floor rebuilds
+the generated tree node for node.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import sys
+
+import pytest
+
+import btgen_pytrees
+
+# benchmarks/ is beside the package, not inside it: importable under
+# `python -m pytest` (the working directory is on sys.path) but not under a bare
+# `pytest`, hence the repository root here
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
+from benchmarks import floor, measure, run, timelines  # noqa: E402
+
+N = 50
+
+
+@pytest.mark.parametrize("shape", list(timelines.SHAPES))
+def test_every_shape_is_a_valid_case_of_n_entries(shape: str) -> None:
+    case = btgen_pytrees.load(timelines.build(shape, N))
+    assert len(case.entries) == N
+    edges = btgen_pytrees.timeline(case).number_of_edges()
+    expected = {"chain": N - 1, "comb": N - 1, "fan_out": N - 1, "fan_in": N - 1, "random": 2 * N - 3}
+    assert edges == expected[shape]
+
+
+def test_random_dag_is_deterministic() -> None:
+    assert timelines.random_dag(N) == timelines.random_dag(N)
+    assert timelines.random_dag(N) != timelines.random_dag(N, seed=7)
+
+
+def test_floor_rebuilds_the_same_shape() -> None:
+    root = btgen_pytrees.generate(btgen_pytrees.load(timelines.comb(N)))
+    shape = floor.capture(root)
+    rebuilt = floor.build(shape)
+    assert floor.capture(rebuilt).counts() == shape.counts()
+    assert [n for _, _, n in floor.capture(rebuilt).nodes] == [n for _, _, n in shape.nodes]
+    assert floor.count(rebuilt) == len(shape) and floor.depth(rebuilt) == floor.depth(root)
+
+
+def test_one_command_inline(tmp_path, capsys, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # a full collection before every repeat steadies real measurements; in the
+    # test process's large heap it would be most of this test's time
+    monkeypatch.setattr(measure, "_fresh", lambda: None)
+    out = tmp_path / "bench.json"
+    argv = ["--inline", "--sizes", "5", str(N), "--repeats", "1", "--tick-n", str(N), "--schema-n", str(N),
+            "--json", str(out)]  # fmt: skip
+    assert run.main(argv) == 0
+    text = capsys.readouterr().out
+    assert "total/floor" in text and "run/bare" in text and "the loader's validator" in text
+    document = json.loads(out.read_text())
+    rows = document["generation"]
+    assert {(r["shape"], r["n"]) for r in rows} == {(s, n) for s in timelines.SHAPES for n in (5, N)}
+    for row in rows:
+        assert row["status"] == "ok", row
+        assert row["total"] >= row["load"] > 0 and row["floor"] > 0 and row["peak"] > 0 and row["floor_peak"] > 0
+        assert row["nodes"] == sum(row["counts"].values())
+    assert document["ticks"]["verdict"] == "pass" and document["ticks"]["status"] == "ok"
+    assert {t["target"] for t in document["targets"]} == {"total/floor", "scaling", "peak/floor", "tick/bare"}
+
+
+def test_collector_off_and_no_memory(monkeypatch, capsys) -> None:  # type: ignore[no-untyped-def]
+    monkeypatch.setattr(measure, "_fresh", lambda: None)
+    argv = ["--inline", "--sizes", "20", "--shapes", "chain", "--gc", "off", "--no-memory", "--repeats", "1",
+            "--tick-n", "0", "--schema-n", "0"]  # fmt: skip
+    assert run.main(argv) == 0
+    assert "garbage collector off" in capsys.readouterr().out

@@ -184,7 +184,50 @@ def _scalar_problem(path: tuple[PathPart, ...], value: Any) -> Problem | None:
     return None
 
 
+_PLAIN = (float, bool, type(None))
+_BIG = 2**1000  # below this, float() cannot overflow
+
+
+def _suspicious(data: Any) -> bool:
+    """A quick pass without paths: could :func:`_value_problems` find anything?
+
+    Valid documents are the common case; for them this one cheap walk (one regex
+    over all strings joined, a bound on integers, a depth count) replaces the
+    detailed walk that builds a JSON path for every container.
+    """
+    if not isinstance(data, (dict, list)):
+        return True
+    strings: list[str] = []
+    stack: list[tuple[Any, int]] = [(data, 0)]
+    while stack:
+        container, depth = stack.pop()
+        if depth >= MAX_NESTING:
+            return True
+        if type(container) is dict:
+            strings.extend(container)
+            values: Any = container.values()
+        else:
+            values = container
+        for item in values:
+            kind = type(item)
+            if kind is str:
+                strings.append(item)
+            elif kind is int:
+                if not -_BIG < item < _BIG:
+                    return True
+            elif kind is dict or kind is list:
+                stack.append((item, depth + 1))
+            elif kind not in _PLAIN:
+                return True  # a subclass or an odd type from a dict: look closely
+    try:
+        return _SURROGATE.search("".join(strings)) is not None
+    except TypeError:  # a non-string key in a dict given from Python: look closely
+        return True
+
+
 def _value_problems(data: Any) -> Iterator[Problem]:
+    if not _suspicious(data):
+        return
     if not isinstance(data, (dict, list)):
         problem = _scalar_problem((), data)
         if problem is not None:

@@ -173,3 +173,16 @@ def test_library_leaves_host_global_state_alone(fig1_path: str) -> None:
     assert run(loaded).verdict == "pass"
     btgen_pytrees.generate(loaded).tick_once()
     assert host_state() == before
+
+
+def test_views_show_a_user_oracle_action_and_params() -> None:
+    from btgen_pytrees.render import render, tree_data
+    from btgen_pytrees.timeline import timeline
+
+    registry = default_registry()
+    registry.register("probe", lambda c, env: py_trees.behaviours.Success(name=c.name), kind="final", params_schema={"type": "object"})
+    loaded = btgen_pytrees.load(case(entry("A"), criteria=[crit("F", "final", "true", action="probe", params={"port": 3})]), registry=registry)
+    root = btgen_pytrees.generate(loaded, registry=registry)
+    assert "--> F · final [probe(port=3)]: true" in render(root, timeline(loaded), "unicode")
+    leaf = tree_data(root)["children"][1]["children"][0]["children"][0]
+    assert (leaf["action"], leaf["params"]) == ("probe", {"port": 3})

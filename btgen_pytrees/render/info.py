@@ -59,6 +59,8 @@ def node_info(node: py_trees.behaviour.Behaviour) -> dict[str, Any]:
     criterion = getattr(node, "btgen_criterion", None)
     if criterion is not None:
         info.update(id=criterion.id, criterion=criterion.type, expect=criterion.expect.source)
+        if criterion.action is not None:
+            info.update(action=criterion.action, params=dict(criterion.params))
         for key, value in (("from", criterion.start), ("to", criterion.end), ("at", criterion.at)):
             if value is not None:
                 info[key] = value
@@ -85,14 +87,17 @@ def annotation(node: py_trees.behaviour.Behaviour) -> str:
         return text + (", synchronised" if info["synchronise"] else "")
     if "memory" in info:
         return "memory" if info["memory"] else "no memory"
-    if "action" in info:
+    if "action" in info and "kind" in info:
         params = ", ".join(f"{k}={_value(v)}" for k, v in info["params"].items())
         label = f"{info['id']}: " if info["id"] != info["name"] else ""
         return f"{label}{info['kind']} {info['action']}({params})"
     if "criterion" in info:
         window = "".join(f", {k}={info[k]}" for k in ("from", "to", "at") if k in info)
         label = f"{info['id']}: " if info["id"] != info["name"] else ""
-        return f"{label}{info['criterion']}: {info['expect']}{window}"
+        leaf = ""
+        if "action" in info:
+            leaf = f" [{info['action']}({', '.join(f'{k}={_value(v)}' for k, v in info['params'].items())})]"
+        return f"{label}{info['criterion']}{leaf}: {info['expect']}{window}"
     if "waits_for" in info:
         return f"trigger: waits for {info['join']} of {', '.join(info['waits_for'])}"
     if "marks" in info:

@@ -37,7 +37,7 @@ from .errors import InvalidTestCase, PathPart, Problem
 from .expressions import RESERVED, Expression, ExpressionError, parse
 from .leaves import Registry, default_registry
 from .validation import SchemaValidator
-from .model import Criterion, Entry, TestCase
+from .model import EMPTY, Criterion, Entry, TestCase
 
 __all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS"]
 
@@ -372,9 +372,9 @@ class _Checker:
             after = self._after(i, raw, execute_ids, criteria_ids)
             entries.append(Entry(
                 id=raw["id"], kind=raw["kind"], action=raw["action"],
-                params=MappingProxyType(dict(raw.get("params", {}))), after=after,
+                params=_frozen(raw.get("params")), after=after,
                 join=raw.get("join", default_join), name=raw.get("name", raw["id"]), index=i,
-                expressions=MappingProxyType(self._leaf(("execute", i), raw["kind"], raw["action"], raw.get("params", {}))),
+                expressions=_frozen(self._leaf(("execute", i), raw["kind"], raw["action"], raw.get("params", {}))),
             ))  # fmt: skip
         return entries
 
@@ -442,8 +442,7 @@ class _Checker:
             if expr is not None:
                 out.append(Criterion(
                     raw["id"], raw["type"], expr, raw.get("name", raw["id"]), i, start, end, raw.get("at"),
-                    action=raw.get("action"), params=MappingProxyType(dict(params)),
-                    expressions=MappingProxyType(expressions),
+                    action=raw.get("action"), params=_frozen(params), expressions=_frozen(expressions),
                 ))  # fmt: skip
         return out
 
@@ -496,6 +495,11 @@ def _cycle_through(graph: nx.DiGraph, start: str) -> list[str]:
     """A cycle through *start* in a strongly connected *graph*, written pred -> succ."""
     path = nx.shortest_path(graph, start, next(iter(graph.pred[start])))
     return [*path, start]
+
+
+def _frozen(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
+    """A read-only copy; every empty one is the same shared object (most entries have no expressions)."""
+    return MappingProxyType(dict(mapping)) if mapping else EMPTY
 
 
 def _pointer(path: tuple[PathPart, ...]) -> str:

@@ -21,7 +21,7 @@ CRITERION_TYPES = ("record", "period", "final")
 EMPTY: Mapping[str, Any] = MappingProxyType({})
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class Entry:
     """One execute entry: a behaviour or a constraint on the timeline.
 
@@ -52,7 +52,7 @@ class Entry:
         return ("execute", self.index)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class Criterion:
     """One oracle criterion.
 

@@ -112,22 +112,3 @@ class TestCase:
     join: str = "any"
     relation: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({"record": "&&", "others": "&&"}))
     source: str = "<dict>"
-
-    def entry(self, entry_id: str) -> Entry:
-        return self._by_id[entry_id]
-
-    @property
-    def _by_id(self) -> dict[str, Entry]:
-        cache = self.__dict__.get("_by_id_cache")
-        if cache is None:
-            cache = {e.id: e for e in self.entries}
-            object.__setattr__(self, "_by_id_cache", cache)
-        return cache
-
-    @property
-    def records(self) -> tuple[Criterion, ...]:
-        return tuple(c for c in self.criteria if c.type == "record")
-
-    @property
-    def others(self) -> tuple[Criterion, ...]:
-        return tuple(c for c in self.criteria if c.type != "record")

@@ -69,19 +69,13 @@ class SchemaValidator:
         self.fast = _compile_fast(schema)
 
     def is_valid(self, data: Any) -> bool:
-        if self.fast is not None:
-            try:
-                self.fast(data)
-                return True
-            except Exception:  # noqa: BLE001 - rejected (or confused): ask jsonschema
-                pass
-        return bool(self.full.is_valid(data))
+        return next(iter(self.iter_errors(data)), None) is None
 
     def iter_errors(self, data: Any) -> Iterator[jsonschema.ValidationError]:
         if self.fast is not None:
             try:
                 self.fast(data)
                 return iter(())
-            except Exception:  # noqa: BLE001
+            except Exception:  # noqa: BLE001 - rejected (or confused): let jsonschema say why
                 pass
         return self.full.iter_errors(data)

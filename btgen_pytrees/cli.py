@@ -65,13 +65,28 @@ def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.
     """Process *files* in worker processes, report problems as they would be singly, end with a summary."""
     if args.out_dir:
         os.makedirs(args.out_dir, exist_ok=True)
-    outcomes = batch.process(job, [job_args(i) for i in range(len(files))], files,
-                             workers=args.jobs, progress=batch.progress_stream())  # fmt: skip
+    outcomes = _process(args, job, [job_args(i) for i in range(len(files))], files)
+    sys.stdout.write(batch.summary(outcomes))
+    return max(o.code for o in outcomes)
+
+
+def _process(args: argparse.Namespace, job: Callable[..., batch.Outcome], job_args: list[tuple[object, ...]],
+             files: list[str]) -> list[batch.Outcome]:  # fmt: skip
+    """Run *job* over *files* (in parallel when there are several); print each file's problems."""
+    workers = args.jobs if len(files) > 1 else 1
+    outcomes = batch.process(job, job_args, files, workers=workers, progress=batch.progress_stream())
     for outcome in outcomes:
         for line in outcome.problems:
             print(line, file=sys.stderr)
-    sys.stdout.write(batch.summary(outcomes))
-    return max((o.code for o in outcomes), default=EXIT_OK)
+    return outcomes
+
+
+def _expand(args: argparse.Namespace) -> list[str]:
+    """The files named, directories replaced by their *.json files; invalid input if none."""
+    files = batch.expand(args.files)
+    if not files:
+        raise InvalidTestCase([Problem((), "no *.json files found", "json")], ", ".join(args.files))
+    return files
 
 
 def _single(args: argparse.Namespace) -> list[str] | None:
@@ -79,10 +94,7 @@ def _single(args: argparse.Namespace) -> list[str] | None:
     if len(args.files) == 1 and not os.path.isdir(args.files[0]):
         args.file = args.files[0]
         return None
-    files = batch.expand(args.files)
-    if not files:
-        raise InvalidTestCase([Problem((), "no *.json files found", "json")], ", ".join(args.files))
-    return files
+    return _expand(args)
 
 
 def _targets(args: argparse.Namespace, files: list[str], suffix: str) -> list[str | None]:
@@ -115,21 +127,15 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    files = batch.expand(args.files)
-    if not files:
-        print(f"btgen_pytrees: no *.json files in {', '.join(args.files)}", file=sys.stderr)
-        return EXIT_INVALID
-    workers = args.jobs if len(files) > 1 else 1
-    outcomes = batch.process(batch.job_validate, [(tuple(args.plugin or ()),)] * len(files), files,
-                             workers=workers, progress=batch.progress_stream())  # fmt: skip
-    for outcome in outcomes:
-        for line in outcome.problems:
-            print(line, file=sys.stderr)
-        if outcome.code == EXIT_OK and not args.quiet:
-            print(f"{outcome.path}: {outcome.summary}")
-    if len(files) > 1 and not args.quiet:
-        print(batch.summary(outcomes).splitlines()[-1])
-    return max((o.code for o in outcomes), default=EXIT_INVALID)
+    files = _expand(args)
+    outcomes = _process(args, batch.job_validate, [(tuple(args.plugin or ()),)] * len(files), files)
+    if not args.quiet:
+        for outcome in outcomes:
+            if outcome.code == EXIT_OK:
+                print(f"{outcome.path}: {outcome.summary}")
+        if len(files) > 1:
+            print(batch.summary(outcomes).splitlines()[-1])
+    return max(o.code for o in outcomes)
 
 
 def cmd_run(args: argparse.Namespace) -> int:

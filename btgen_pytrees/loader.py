@@ -1,11 +1,13 @@
 """Load and validate a test case: JSON text → :class:`~btgen_pytrees.model.TestCase`.
 
-Validation runs in two stages and reports *every* problem of a stage, each with
-the JSON pointer of the offending value:
+Validation runs in stages and reports *every* problem of a stage, each with the
+JSON pointer of the offending value; a stage runs only if the one before found
+nothing, because its checks assume what the earlier ones guarantee:
 
+0. **values** - what no later stage could handle: lone surrogates, integers
+   beyond float range, nesting deeper than :data:`MAX_NESTING` (fuzz findings).
 1. **shape** - the JSON Schema ``schemas/testcase.schema.json`` (unknown keys,
-   wrong types, missing keys, bad identifiers, ...). If the shape is wrong, the
-   second stage does not run: its checks assume the shape.
+   wrong types, missing keys, bad identifiers, ...).
 2. **meaning** - what a schema cannot say: duplicate ids, ``after`` naming an
    unknown id or the entry itself, cycles, ``from`` ≥ ``to``, expressions,
    signal names, unknown actions and each action's own ``params`` schema.

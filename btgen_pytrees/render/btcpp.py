@@ -60,7 +60,7 @@ from py_trees.composites import Composite, Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
 from ..leaves.wiring import Completion, OrMember, RunStart, Trigger
-from .info import policy_name
+from .info import is_selected, policy_name, selected
 
 __all__ = ["btcpp_xml", "port_value", "port_name", "port_names", "BUILTINS", "format_btcpp"]
 
@@ -263,8 +263,7 @@ class _Export:
 
 
 def _unselected(parent: py_trees.behaviour.Behaviour, child: py_trees.behaviour.Behaviour) -> bool:
-    policy = getattr(parent, "policy", None)
-    return isinstance(policy, Policy.SuccessOnSelected) and not any(c is child for c in policy.children)
+    return selected(parent) is not None and not is_selected(parent, child)
 
 
 def _walk(root: py_trees.behaviour.Behaviour, top: ET.Element, export: _Export) -> None:

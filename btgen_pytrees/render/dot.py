@@ -43,7 +43,7 @@ from py_trees.composites import Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
 from ..leaves.wiring import Trigger
-from .info import annotation, role, walk
+from .info import annotation, is_selected, role, walk
 
 __all__ = [
     "dot_graph", "dot_source", "graphviz_render", "GraphvizMissing", "IMAGE_FORMATS", "STYLES",
@@ -154,13 +154,6 @@ def _node(name: str, node: py_trees.behaviour.Behaviour) -> pydot.Node:
     return pydot.Node(name, **attrs)
 
 
-def _is_selected(parent: py_trees.behaviour.Behaviour, child: py_trees.behaviour.Behaviour) -> bool:
-    policy = getattr(parent, "policy", None)
-    return isinstance(policy, py_trees.common.ParallelPolicy.SuccessOnSelected) and any(
-        c is child for c in policy.children
-    )
-
-
 def _add_legend(graph: pydot.Dot, collapsed: bool) -> None:
     """A cluster with one sample node per style and one sample of each special edge."""
     legend = pydot.Subgraph("cluster_legend", label='"legend"', style="dashed", fontsize="10", color="gray50")
@@ -207,7 +200,7 @@ def dot_graph(root: py_trees.behaviour.Behaviour, *, max_depth: int | None = Non
             name, visible = f"n{visible}", visible + 1
             graph.add_node(_node(name, node))
             if node.parent is not None and node is not root:
-                attrs = SELECTED_EDGE if _is_selected(node.parent, node) else {}
+                attrs = SELECTED_EDGE if is_selected(node.parent, node) else {}
                 graph.add_edge(pydot.Edge(endpoint[id(node.parent)], name, **attrs))
             if depth == max_depth and node.children:
                 box = f"{name}_more"

@@ -14,7 +14,7 @@ from py_trees.composites import Parallel, Sequence
 
 from ..leaves.wiring import Completion, OrMember, RunStart, Trigger
 
-__all__ = ["node_info", "walk", "policy_name", "annotation", "role"]
+__all__ = ["node_info", "walk", "policy_name", "annotation", "role", "selected", "is_selected"]
 
 
 def walk(root: py_trees.behaviour.Behaviour) -> Iterator[tuple[int, py_trees.behaviour.Behaviour]]:
@@ -24,6 +24,18 @@ def walk(root: py_trees.behaviour.Behaviour) -> Iterator[tuple[int, py_trees.beh
         depth, node = stack.pop()
         yield depth, node
         stack.extend((depth + 1, child) for child in reversed(node.children))
+
+
+def selected(node: py_trees.behaviour.Behaviour) -> list[py_trees.behaviour.Behaviour] | None:
+    """The children a ``SuccessOnSelected`` Parallel waits for (its exit condition), else None."""
+    policy = getattr(node, "policy", None)
+    if isinstance(policy, py_trees.common.ParallelPolicy.SuccessOnSelected):
+        return list(policy.children)
+    return None
+
+
+def is_selected(parent: py_trees.behaviour.Behaviour, child: py_trees.behaviour.Behaviour) -> bool:
+    return any(c is child for c in selected(parent) or ())
 
 
 def policy_name(node: Parallel) -> str:
@@ -49,8 +61,9 @@ def node_info(node: py_trees.behaviour.Behaviour) -> dict[str, Any]:
     if isinstance(node, Parallel):
         info["policy"] = policy_name(node)
         info["synchronise"] = node.policy.synchronise
-        if isinstance(node.policy, py_trees.common.ParallelPolicy.SuccessOnSelected):
-            info["selected"] = [child.name for child in node.policy.children]
+        chosen = selected(node)
+        if chosen is not None:
+            info["selected"] = [child.name for child in chosen]
     elif isinstance(node, Sequence):
         info["memory"] = node.memory
     entry = getattr(node, "btgen_entry", None)

@@ -45,7 +45,7 @@ class Problem:
         path: where, as keys and indices from the document root
         message: what, in words a test author understands
         cause: which check found it: ``json``, ``schema``, ``id``, ``graph``,
-            ``expression``, ``action``, ``signal``, ``limit``
+            ``expression``, ``action``, ``signal``, ``limit``, ``system``
     """
 
     path: tuple[PathPart, ...]

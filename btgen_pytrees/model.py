@@ -12,6 +12,7 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 from .expressions import Expression
+from .systems.base import SystemSpec
 
 __all__ = ["Entry", "Criterion", "TestCase", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES"]
 
@@ -97,6 +98,7 @@ class TestCase:
         criteria: oracle criteria in file order
         relation: ``{"record": "&&"|"||", "others": "&&"|"||"}``
         source: file name, or ``<dict>``
+        system: the system under test (``simulated`` unless the case names one)
     """
 
     __test__ = False  # not a pytest class, despite the name
@@ -112,3 +114,4 @@ class TestCase:
     join: str = "any"
     relation: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({"record": "&&", "others": "&&"}))
     source: str = "<dict>"
+    system: SystemSpec = SystemSpec()

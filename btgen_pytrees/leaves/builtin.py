@@ -1,4 +1,4 @@
-"""Registration of the built-in simulated leaves and oracles.
+"""Registration of the built-in simulated leaves, oracles and the ``simulated`` system.
 
 Built-ins go through :meth:`Registry.register` like any plugin; this module is
 the only place that knows their parameter schemas.
@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..systems.simulated import SIMULATED
 from . import oracles, simulated
 from .registry import Registry
 
@@ -54,4 +55,5 @@ def register_builtins(registry: Registry) -> Registry:
     registry.register(None, oracles.Record, kind="record", params_schema=no_params, description="expect holds on every tick")
     registry.register(None, oracles.Period, kind="period", params_schema=no_params, description="expect holds on every tick of a window")
     registry.register(None, oracles.Final, kind="final", params_schema=no_params, description="expect holds at one instant")
+    registry.register_system(SIMULATED)
     return registry

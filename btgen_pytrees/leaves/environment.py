@@ -21,11 +21,14 @@ and this is the hot path of every tick.
 from __future__ import annotations
 
 import re
-from typing import Any, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 from py_trees.blackboard import Blackboard
 
 from ..clock import Clock, WallClock
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..systems.base import System
 
 __all__ = ["Environment", "unique_namespace"]
 
@@ -50,16 +53,21 @@ def unique_namespace(test_name: str) -> str:
 
 
 class Environment:
-    """The namespace, clock and initial signals of one generated tree.
+    """The namespace, clock, initial signals and system under test of one generated tree.
 
     Leaves (built-in and user) receive it from their factory; the wiring nodes
-    (triggers, completion marks) use it to talk to each other.
+    (triggers, completion marks) use it to talk to each other. A system's action
+    leaves reach the running :class:`~btgen_pytrees.systems.System` as
+    :attr:`system` (set by the runner for a run, or by a host that drives a
+    system itself; ``None`` otherwise), at tick time, not when they are built.
     """
 
-    def __init__(self, namespace: str, clock: Clock | None = None, signals: Mapping[str, Any] | None = None):
+    def __init__(self, namespace: str, clock: Clock | None = None, signals: Mapping[str, Any] | None = None,
+                 system: "System | None" = None):  # fmt: skip
         ns = "/" + namespace.strip("/")
         self.namespace = ns
         self.clock: Clock = clock if clock is not None else WallClock()
+        self.system = system
         self.initial_signals: dict[str, Any] = dict(signals or {})
         self._signals = ns + "/signals/"
         self._done = ns + "/done/"
@@ -88,7 +96,10 @@ class Environment:
         return Blackboard.storage[self._signals + name]
 
     def write(self, name: str, value: Any) -> None:
-        Blackboard.set(self._signals + name, value)
+        if "." in name:  # Blackboard.set would take 'ego.speed' as attribute 'speed' of key 'ego'
+            Blackboard.storage[self._signals + name] = value
+        else:
+            Blackboard.set(self._signals + name, value)
 
     def values(self, names: Iterable[str]) -> dict[str, Any]:
         """The current values of those *names* that have one."""

@@ -6,6 +6,11 @@ them are expressions or signal names (so the loader can check them before any
 tree exists). The built-in simulated leaves are registered exactly like user
 leaves; nothing downstream special-cases them.
 
+It also holds the *system types* (:mod:`btgen_pytrees.systems`) a case may name
+in its ``system`` key: ``register_system(system_type)``, ``system(name)``,
+``systems()``. A system's actions are ordinary leaves whose action name is
+``<system>.<action>`` (``sumo.speed``), registered with :meth:`Registry.register`.
+
 >>> from btgen_pytrees.leaves import default_registry
 >>> default_registry().actions("constraint")
 ['until', 'wait']
@@ -15,13 +20,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, Callable, Mapping, Union
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Union
 
 import py_trees
 
 from ..model import Criterion, Entry
 from ..validation import SchemaValidator
 from .environment import Environment
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..systems.base import SystemType
 
 __all__ = ["Factory", "LeafType", "Registry", "KINDS"]
 
@@ -60,10 +68,12 @@ class LeafType:
 
 
 class Registry:
-    """A mutable mapping of ``(kind, action)`` to :class:`LeafType`."""
+    """A mutable mapping of ``(kind, action)`` to :class:`LeafType`, and of names to system types."""
 
-    def __init__(self, types: Mapping[tuple[str, str | None], LeafType] | None = None):
+    def __init__(self, types: Mapping[tuple[str, str | None], LeafType] | None = None,
+                 systems: Mapping[str, "SystemType"] | None = None):  # fmt: skip
         self._types: dict[tuple[str, str | None], LeafType] = dict(types or {})
+        self._systems: dict[str, SystemType] = dict(systems or {})
 
     def register(
         self,
@@ -119,7 +129,26 @@ class Registry:
         return node
 
     def copy(self) -> "Registry":
-        return Registry(self._types)
+        return Registry(self._types, self._systems)
+
+    # -- systems under test ----------------------------------------------------
+    def register_system(self, system_type: "SystemType", *, replace: bool = False) -> "SystemType":
+        """Make *system_type* available to cases as ``"system": {"type": system_type.name}``."""
+        name = getattr(system_type, "name", None)
+        if not isinstance(name, str) or not name.isidentifier():
+            raise ValueError(f"a system type needs a name that is an identifier, not {name!r}")
+        if name in self._systems and not replace:
+            raise ValueError(f"system {name!r} is already registered (pass replace=True)")
+        self._systems[name] = system_type
+        return system_type
+
+    def system(self, name: str) -> "SystemType | None":
+        """The system type registered as *name*, or ``None``."""
+        return self._systems.get(name)
+
+    def systems(self) -> list[str]:
+        """Sorted names of the registered system types."""
+        return sorted(self._systems)
 
     def __contains__(self, key: tuple[str, str | None]) -> bool:
         return key in self._types

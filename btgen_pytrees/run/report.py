@@ -49,7 +49,8 @@ class Report:
 
     Attributes:
         test: the test case's name
-        verdict: ``pass``, ``fail``, ``timeout`` or ``error``
+        verdict: ``pass``, ``fail``, ``timeout`` or ``error``; ``running`` when a
+            host-ticked tree's :class:`~btgen_pytrees.run.Collector` is asked before it finished
         duration: run time of the last tick, in virtual seconds
         ticks: number of ticks
         message: why the run failed, timed out or erred ("" on pass)
@@ -120,7 +121,7 @@ class Report:
         failed = next((e for e in self.execute if e.status == "failure"), None)
         if failed is not None:
             case("execute", "fail", f"{failed.id}: {failed.message}", failed.end)
-        elif self.verdict in ("timeout", "error"):
+        elif self.verdict in ("timeout", "error", "running"):
             case("execute", self.verdict, self.message, self.duration)
         else:
             case("execute", "pass", "", self.duration)

@@ -1,14 +1,24 @@
-"""The simulator: tick a generated tree on a virtual clock and report.
+"""The runner: drive a system under test and a generated tree, tick by tick, and report.
 
-Tick *k* happens at ``t = k * tick`` (t = 0 on the first tick); nothing sleeps,
-so a 60 s test runs as fast as its tree ticks, and the same input gives the same
-run to the byte. The run ends when the root finishes (its exit condition
-succeeded, or something failed) or after the tick at ``timeout``.
+One run drives the case's :class:`~btgen_pytrees.systems.System` (the built-in
+``simulated`` one unless the case names another) through its life cycle::
+
+    create -> start -> [publish, tree tick, system tick]* -> close
+
+and the system's time is the run's clock: the tree's environment reads
+``system.now()`` for the whole run. With the simulated system tick *k* happens
+at ``t = k * tick`` (t = 0 on the first tick); nothing sleeps, so a 60 s test
+runs as fast as its tree ticks, and the same input gives the same run to the
+byte. The run ends when the root finishes (its exit condition succeeded, or
+something failed) or after the tick at ``timeout`` (``timeout / tick`` steps);
+the system is not stepped after the last tree tick. ``close`` is always called:
+on pass, fail, timeout, a leaf that raised, a :class:`SystemFailure` (verdict
+``error`` with its message) and Ctrl-C (the ``KeyboardInterrupt`` goes on).
 
 The runner ticks the root's generator directly rather than through
 :class:`py_trees.trees.BehaviourTree` (which walks the whole tree after every
-tick); a light recorder sees each ticked node to note when entries start and
-end, and can print a trace line per event.
+tick) and hands each ticked node to a :class:`~btgen_pytrees.run.Collector`,
+the same visitor a host application attaches to its own tree.
 
 >>> from btgen_pytrees import load
 >>> report = run(load("examples/fig1.json"))
@@ -18,140 +28,102 @@ end, and can print a trace line per event.
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any
 
 import py_trees
 from py_trees.common import Status
 
-from ..clock import VirtualClock
 from ..construct import generate
-from ..leaves import Registry
-from ..leaves.oracles import Outcome, Record
+from ..leaves import Registry, default_registry
 from ..model import TestCase
-from .report import EntryResult, OracleResult, Report
+from ..systems.base import System, SystemFailure
+from .collector import Collector, Trace
+from .report import Report
 
-__all__ = ["run", "run_tree", "Trace"]
+__all__ = ["run", "run_tree", "create_system", "Trace"]
 
-Trace = Callable[[str], None]
 _DONE = (Status.SUCCESS, Status.FAILURE)
 
 
-class _Recorder:
-    """Notes start/end times of entry leaves as the tick passes through them."""
+def create_system(case: TestCase, registry: Registry | None = None) -> System:
+    """A new, not yet started, instance of the system *case* names (``case.system``).
 
-    def __init__(self, root: py_trees.behaviour.Behaviour, clock: VirtualClock, trace: Trace | None):
-        self.clock = clock
-        self.trace = trace
-        self.results: dict[int, EntryResult] = {}
-        self.ordered: list[tuple[int, EntryResult]] = []
-        self.nodes: dict[int, py_trees.behaviour.Behaviour] = {}
-        for node in root.iterate():
-            entry = getattr(node, "btgen_entry", None)
-            if entry is not None:
-                result = EntryResult(entry.id, entry.kind)
-                self.results[id(node)] = result
-                self.ordered.append((entry.index, result))
-                self.nodes[id(node)] = node
-        self.ordered.sort(key=lambda pair: pair[0])
-
-    def see(self, node: py_trees.behaviour.Behaviour) -> None:
-        result = self.results.get(id(node))
-        if result is None or result.end is not None:
-            return
-        now = self.clock.now()
-        if result.start is None:
-            result.start, result.status = now, "running"
-            if self.trace:
-                self.trace(f"{now:10.3f}  start   {result.id}")
-        if node.status in _DONE:
-            result.end = now
-            result.status = "success" if node.status == Status.SUCCESS else "failure"
-            result.message = node.feedback_message if node.status == Status.FAILURE else ""
-            if self.trace:
-                self.trace(f"{now:10.3f}  {result.status:8s}{result.id}" + (f"  {result.message}" if result.message else ""))
-
-
-    def raised(self, exc: BaseException) -> EntryResult | None:
-        """Mark the entry whose leaf raised *exc* (found on the traceback) as failed, and return it."""
-        culprit = None
-        tb = exc.__traceback__
-        while tb is not None:
-            result = self.results.get(id(tb.tb_frame.f_locals.get("self")))
-            culprit = result if result is not None else culprit
-            tb = tb.tb_next
-        if culprit is not None:
-            now = self.clock.now()
-            culprit.start = now if culprit.start is None else culprit.start
-            culprit.end, culprit.status, culprit.message = now, "failure", f"{type(exc).__name__}: {exc}"
-        return culprit
+    Raises:
+        SystemFailure: no system type of that name is registered
+    """
+    registry = registry if registry is not None else default_registry()
+    system_type = registry.system(case.system.type)
+    if system_type is None:
+        installed = ", ".join(registry.systems()) or "none"
+        raise SystemFailure(f"unknown system {case.system.type!r} (installed: {installed}; a plugin may add it: --plugin)")
+    return system_type.create(case.system, case)
 
 
 def run_tree(
     root: py_trees.behaviour.Behaviour,
     case: TestCase,
-    clock: VirtualClock,
+    clock: Any = None,
     *,
+    system: System | None = None,
+    registry: Registry | None = None,
     trace: Trace | None = None,
 ) -> Report:
-    """Tick *root* (generated from *case* with *clock*) until it finishes or times out."""
-    recorder = _Recorder(root, clock, trace)
-    see = recorder.see
-    root.setup_with_descendants()
+    """Run *root* (generated from *case*) against *system* until it finishes or times out.
+
+    Args:
+        root, case: from :func:`~btgen_pytrees.generate` and :func:`~btgen_pytrees.load`
+        clock: ignored; kept so that older callers work. The tree reads the
+            system's time during the run (its environment's clock is the system,
+            and is put back afterwards)
+        system: a new, not started instance; default: :func:`create_system`
+            for ``case.system`` from *registry* (default: the default registry)
+        trace: called with one line per entry start/end
+    """
+    if system is None:
+        system = create_system(case, registry)
+    env = root.btgen_env  # type: ignore[attr-defined]
+    collector = Collector(root, trace=trace)
+    see = collector.run
     last = int(case.timeout / case.tick + 1e-9)
-    verdict, message, ticks, now = "timeout", f"no verdict after {case.timeout:g} s", 0, 0.0
-    for k in range(last + 1):
-        now = round(k * case.tick, 9)  # 0.30000000000000004 -> 0.3
-        clock.set(now)
-        ticks = k + 1
+    saved = env.clock, env.system
+    env.clock, env.system = system, system
+    try:
+        root.setup_with_descendants()
+        system.start(env)
+        for k in range(last + 1):
+            system.publish(env)
+            try:
+                for node in root.tick():
+                    see(node)
+            except Exception as exc:  # a leaf raised (a SystemFailure too): report it, never a traceback
+                collector.raised(exc)
+                break
+            if root.status in _DONE:
+                break
+            if k < last:
+                system.tick()
+        else:
+            collector.end("timeout", f"no verdict after {case.timeout:g} s")
+    except SystemFailure as exc:  # start, publish or tick
+        collector.end("error", str(exc))
+    finally:
         try:
-            for node in root.tick():
-                see(node)
-        except Exception as exc:  # a leaf raised: report it, never a traceback
-            verdict, message = "error", f"{type(exc).__name__}: {exc}"
-            culprit = recorder.raised(exc)
-            if culprit is not None:
-                message = f"{culprit.id} raised {message}"
-            break
-        if root.status in _DONE:
-            verdict = "pass" if root.status == Status.SUCCESS else "fail"
-            message = ""
-            break
-    if root.status == Status.RUNNING or verdict == "error":
-        root.stop(Status.INVALID)
-    return _report(root, case, recorder, verdict, message, now, ticks)
-
-
-def _report(root, case, recorder, verdict, message, now, ticks) -> Report:  # type: ignore[no-untyped-def]
-    execute = []
-    for _, result in recorder.ordered:
-        if result.status == "running" and verdict != "timeout":
-            result.status = "stopped"
-        execute.append(result)
-    oracles = []
-    for node in root.iterate():
-        criterion = getattr(node, "btgen_criterion", None)
-        if criterion is None:
-            continue
-        if isinstance(node, Record) and verdict in ("pass", "fail", "timeout"):
-            node.conclude(now)
-        outcome: Outcome = getattr(node, "outcome", None) or Outcome()
-        oracles.append((criterion.index, OracleResult(
-            criterion.id, criterion.type, criterion.expect.source, outcome.verdict, outcome.at,
-            outcome.message, dict(outcome.values), list(getattr(node, "samples", [])))))  # fmt: skip
-    oracles.sort(key=lambda pair: pair[0])
-    if verdict == "fail" and not message:
-        message = _why_failed(execute, [o for _, o in oracles])
-    return Report(case.name, verdict, now, ticks, message, execute, [o for _, o in oracles])
-
-
-def _why_failed(execute: list[EntryResult], oracles: list[OracleResult]) -> str:
-    failed = [f"{e.id} failed" + (f" ({e.message})" if e.message else "") for e in execute if e.status == "failure"]
-    failed += [f"{o.id} failed" for o in oracles if o.verdict == "fail"]
-    return "; ".join(failed)
+            if root.status == Status.RUNNING or collector.ending is not None and collector.ending[0] == "error":
+                root.stop(Status.INVALID)
+        finally:
+            try:
+                system.close()
+            except SystemFailure as exc:
+                if collector.ending is None or collector.ending[0] != "error":
+                    collector.end("error", f"closing the system failed: {exc}")
+            finally:
+                env.clock, env.system = saved
+    return collector.report()
 
 
 def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None) -> Report:
-    """Generate *case*'s tree on a virtual clock, run it and return the :class:`Report`."""
-    clock = VirtualClock()
-    root = generate(case, registry=registry, clock=clock)
-    return run_tree(root, case, clock, trace=trace)
+    """Generate *case*'s tree, run it against its system and return the :class:`Report`."""
+    registry = registry if registry is not None else default_registry()
+    system = create_system(case, registry)
+    root = generate(case, registry=registry, clock=system)
+    return run_tree(root, case, system=system, trace=trace)

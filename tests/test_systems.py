@@ -1,0 +1,211 @@
+"""Systems under test: the life cycle the runner drives, proven by ticking with a small recording system."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import py_trees
+import pytest
+from helpers import case, crit, entry
+from py_trees.common import Status
+
+import btgen_pytrees
+from btgen_pytrees.clock import VirtualClock
+from btgen_pytrees.leaves import default_registry
+from btgen_pytrees.run import Collector, run, run_tree
+from btgen_pytrees.systems import SystemFailure, SystemInfo, SystemSpec
+from btgen_pytrees.systems.simulated import SimulatedSystem
+
+
+class Counter:
+    """A system that owns signal ``n`` (its tick count) and logs every life-cycle call."""
+
+    def __init__(self, tick: float, fail_at: str | None = None, fail_tick: int = 3):
+        self.log: list[str] = []
+        self.k, self.step, self.fail_at, self.fail_tick = 0, tick, fail_at, fail_tick
+
+    def start(self, env: Any) -> None:
+        self.log.append("start")
+        if self.fail_at == "start":
+            raise SystemFailure("cannot start")
+
+    def now(self) -> float:
+        return round(self.k * self.step, 9)
+
+    def publish(self, env: Any) -> None:
+        self.log.append(f"publish {self.k}")
+        if self.fail_at == "publish" and self.k == self.fail_tick:
+            raise SystemFailure("lost the connection")
+        env.write("n", self.k)
+
+    def tick(self) -> None:
+        self.log.append(f"tick {self.k}")
+        if self.fail_at == "tick" and self.k == self.fail_tick:
+            raise SystemFailure("the simulator ended early")
+        self.k += 1
+
+    def close(self) -> None:
+        self.log.append("close")
+
+
+class CounterType:
+    name = "counter"
+    options = ("--fast",)
+
+    def describe(self, spec: SystemSpec, case_data: Any) -> SystemInfo:
+        return SystemInfo(signals=("n",))
+
+    def create(self, spec: SystemSpec, case: Any) -> Counter:
+        return Counter(case.tick)
+
+
+class Boom(py_trees.behaviour.Behaviour):
+    """``counter.boom {error}``: raises on its first tick (a SystemFailure or a ValueError)."""
+
+    def __init__(self, entry: Any, env: Any):
+        super().__init__(name=entry.name)
+        self.env, self.error = env, entry.params.get("error", "value")
+
+    def update(self) -> Status:
+        assert isinstance(self.env.system, Counter)  # the running system is reachable from a leaf
+        if self.error == "system":
+            raise SystemFailure("vehicle 'ego' is gone")
+        if self.error == "interrupt":
+            raise KeyboardInterrupt
+        raise ValueError("bad value")
+
+
+def registry() -> Any:
+    r = default_registry()
+    r.register_system(CounterType())
+    r.register("counter.boom", Boom, description="raise")
+    return r
+
+
+def one_run(data: dict[str, Any], **system_kw: Any) -> tuple[Any, Counter]:
+    reg = registry()
+    loaded = btgen_pytrees.load(data, registry=reg)
+    system = Counter(loaded.tick, **system_kw)
+    root = btgen_pytrees.generate(loaded, registry=reg)
+    return run_tree(root, loaded, system=system), system
+
+
+# -- the life cycle ------------------------------------------------------------------
+
+
+def test_life_cycle_order_and_the_systems_time_is_the_runs_clock() -> None:
+    report, system = one_run(case(entry("H", duration=0.2), criteria=[crit("F", "final", "n == 2")]))
+    assert report.verdict == "pass", report.table()
+    assert system.log == ["start", "publish 0", "tick 0", "publish 1", "tick 1", "publish 2", "close"]
+    assert report.oracles[0].values == {"n": 2} and report.duration == 0.2 and report.ticks == 3
+
+
+@pytest.mark.parametrize(
+    "data, kw, verdict, message",
+    [
+        (case(entry("H", duration=0.2)), {}, "pass", ""),
+        (case(entry("H", duration=0.2), criteria=[crit("R", "record", "n < 1")]), {}, "fail", "R failed"),
+        (case(entry("H", duration=5), timeout=0.3), {}, "timeout", "no verdict after 0.3 s"),
+        (case(entry("B", action="counter.boom")), {}, "error", "B raised ValueError: bad value"),
+        (case(entry("B", action="counter.boom", error="system")), {}, "error", "B: vehicle 'ego' is gone"),
+        (case(entry("H", duration=1)), {"fail_at": "start"}, "error", "cannot start"),
+        (case(entry("H", duration=1)), {"fail_at": "publish"}, "error", "lost the connection"),
+        (case(entry("H", duration=1)), {"fail_at": "tick"}, "error", "the simulator ended early"),
+    ],
+)
+def test_close_on_every_ending(data: dict[str, Any], kw: dict[str, Any], verdict: str, message: str) -> None:
+    report, system = one_run(data, **kw)
+    assert (report.verdict, report.message) == (verdict, message)
+    assert system.log[-1] == "close" and system.log.count("close") == 1
+    assert report.ticks == sum(1 for line in system.log if line.startswith("publish")) - (kw.get("fail_at") == "publish")
+
+
+def test_close_on_keyboard_interrupt_and_the_interrupt_goes_on() -> None:
+    reg = registry()
+    loaded = btgen_pytrees.load(case(entry("H", duration=0.1), entry("B", ["H"], action="counter.boom", error="interrupt")), registry=reg)
+    system = Counter(loaded.tick)
+    root = btgen_pytrees.generate(loaded, registry=reg)
+    with pytest.raises(KeyboardInterrupt):
+        run_tree(root, loaded, system=system)
+    assert system.log[-1] == "close" and root.status == Status.INVALID
+    assert root.btgen_env.system is None  # the environment is given back as it was
+
+
+def test_simulated_system_is_the_default_and_keeps_todays_clock() -> None:
+    system = SimulatedSystem(0.1)
+    system.start(None)
+    seen = []
+    for _ in range(31):
+        seen.append(system.now())
+        system.tick()
+    assert seen == [round(k * 0.1, 9) for k in range(31)] and seen[3] == 0.3
+    reg = default_registry()
+    assert reg.system("simulated") is not None and "simulated" in reg.systems()
+    assert btgen_pytrees.load(case(entry("A"))).system == SystemSpec("simulated", None, ())
+
+
+def test_registering_a_system_twice_needs_replace() -> None:
+    reg = registry()
+    with pytest.raises(ValueError, match="already registered"):
+        reg.register_system(CounterType())
+    reg.register_system(CounterType(), replace=True)
+    assert reg.copy().system("counter") is not None
+
+
+def test_dotted_signal_names_are_stored_as_written() -> None:
+    root = btgen_pytrees.generate(btgen_pytrees.load(case(entry("A"))))
+    root.btgen_env.write("ego.speed", 3.5)
+    assert root.btgen_env.read("ego.speed") == 3.5 and root.btgen_env.values(["ego.speed"]) == {"ego.speed": 3.5}
+
+
+# -- host-ticked trees: the Collector --------------------------------------------------
+
+
+def host_ticked(loaded: Any, *, stop_early: int | None = None) -> tuple[Collector, Any]:
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    tree = py_trees.trees.BehaviourTree(root)
+    collector = Collector(root)
+    tree.add_visitor(collector)
+    tree.add_visitor(py_trees.visitors.SnapshotVisitor())
+    tree.setup()
+    for k in range(1000):
+        clock.set(round(k * loaded.tick, 9))
+        tree.tick()
+        if root.status != Status.RUNNING or k == stop_early:
+            break
+    return collector, root
+
+
+@pytest.mark.parametrize("name", ["fig1.json", "fig1_failing.json"])
+def test_host_ticked_tree_reports_exactly_what_run_reports(name: str, fig1_path: str) -> None:
+    loaded = btgen_pytrees.load(fig1_path.replace("fig1.json", name))
+    collector, _ = host_ticked(loaded)
+    expected = run(loaded)
+    report = collector.report()
+    assert report.to_json() == expected.to_json()
+    assert report.table() == expected.table() and report.to_junit() == expected.to_junit()
+    assert collector.report().to_json() == expected.to_json()  # asking again changes nothing
+
+
+def test_collector_mid_run_says_running_and_a_rerun_starts_a_new_report(fig1_path: str) -> None:
+    loaded = btgen_pytrees.load(fig1_path)
+    collector, root = host_ticked(loaded, stop_early=10)
+    mid = collector.report()
+    assert (mid.verdict, mid.ticks, mid.duration) == ("running", 11, 1.0)
+    assert json.loads(mid.to_json())["verdict"] == "running"
+    statuses = {e.id: e.status for e in mid.execute}
+    assert statuses["B2"] == "running" and statuses["B4"] == "not-started"
+    # the host stops the tree and runs it again from the start: the collector follows
+    root.stop(Status.INVALID)
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.add_visitor(collector)
+    clock = root.btgen_env.clock
+    for k in range(100):
+        clock.set(round(k * loaded.tick, 9))
+        tree.tick()
+        if root.status != Status.RUNNING:
+            break
+    assert collector.report().to_json() == run(loaded).to_json()
+    assert mid.execute[2].id == "B2" and mid.execute[2].status == "running"  # an earlier report is not changed afterwards

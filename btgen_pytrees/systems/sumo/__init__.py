@@ -1,0 +1,163 @@
+"""Eclipse SUMO as a system under test (``"system": {"type": "sumo", "config": "x.sumocfg"}``).
+
+* :mod:`.scenario` - reads and checks the ``.sumocfg`` and its files at load time
+* :mod:`.system` - :class:`SumoSystem`, one libsumo simulation per run; the signals
+* :mod:`.actions` - the ``sumo.*`` action leaves
+
+:func:`register` adds the system type and its actions to a registry, like any
+plugin. Nothing here imports libsumo: only starting a SUMO run does, so cases
+without SUMO never need the ``sumo`` extra, and a SUMO run without it ends with a
+message saying how to install it. See docs/sumo.md.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from difflib import get_close_matches
+from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping
+
+from ...errors import Problem
+from ...expressions import RESERVED
+from ..base import SystemFailure, SystemInfo, SystemSpec
+from . import actions
+from .scenario import OPTIONS, Scenario, parse_options, read_scenario
+from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ...leaves.registry import Registry
+    from ...model import TestCase
+
+__all__ = ["SumoType", "SUMO", "SumoSystem", "register", "signal_vehicles"]
+
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*(?![\s\S])")
+_DESCRIPTIONS = {
+    "speed": "take over a vehicle's speed: ramp to 'to' over 'duration', then hold it ('safe': false disables SUMO's checks)",
+    "release": "give a vehicle back to SUMO's driver model",
+    "lane": "change lane; succeed once on 'lane', fail after 'timeout'",
+    "spawn": "insert a vehicle on a route; succeed once it is in the network",
+    "signal": "set a traffic light's state string",
+}
+_LEAVES = {"speed": actions.Speed, "release": actions.Release, "lane": actions.Lane, "spawn": actions.Spawn,
+           "signal": actions.Signal}  # fmt: skip
+
+
+def signal_vehicles(vehicles: Iterable[str]) -> list[str]:
+    """Those vehicle ids that can be read in expressions (``ego.speed``): names, not ``sim``, not reserved."""
+    return [v for v in vehicles if _NAME.match(v) and v != "sim" and v not in RESERVED]
+
+
+def _suggest(word: str, candidates: Iterable[str]) -> str:
+    hint = get_close_matches(word, sorted(candidates), n=1)
+    return f" (did you mean {hint[0]!r}?)" if hint else ""
+
+
+def _sumo_entries(case_data: Mapping[str, Any]) -> Iterator[tuple[int, str, Mapping[str, Any]]]:
+    execute = case_data.get("execute")
+    for i, entry in enumerate(execute if isinstance(execute, list) else []):
+        if isinstance(entry, dict) and isinstance(entry.get("action"), str) and entry["action"].startswith("sumo."):
+            params = entry.get("params", {})
+            yield i, entry["action"][5:], params if isinstance(params, dict) else {}
+
+
+class SumoType:
+    """The ``sumo`` system type: checks a case's scenario and makes a :class:`SumoSystem` per run."""
+
+    name = "sumo"
+    options = tuple("--" + name for name in OPTIONS)
+
+    def describe(self, spec: SystemSpec, case_data: Mapping[str, Any]) -> SystemInfo:
+        problems: list[Problem] = []
+        for index, message in parse_options(list(spec.options))[1]:
+            problems.append(Problem(("system", "options", index), message, "system"))
+        if not spec.config:
+            problems.append(Problem(("system",), "a 'sumo' system needs 'config': a .sumocfg file next to the case", "system"))
+            return SystemInfo((), tuple(problems))
+        scenario = read_scenario(spec.config)
+        if scenario.problems:
+            problems += [Problem(("system", "config"), p, "system") for p in scenario.problems]
+            return SystemInfo((), tuple(problems))
+        spawned: dict[str, int] = {}
+        for i, action, params in _sumo_entries(case_data):
+            problems += self._check_action(scenario, spawned, i, action, params)
+        for i, action, params in _sumo_entries(case_data):
+            vid = params.get("vehicle")
+            if action != "spawn" and isinstance(vid, str) and vid not in scenario.vehicles and vid not in spawned:
+                known = [*scenario.vehicles, *spawned]
+                problems.append(Problem(("execute", i, "params", "vehicle"),
+                                        f"unknown vehicle {vid!r}{_suggest(vid, known)}", "system"))  # fmt: skip
+        vehicles = signal_vehicles([*scenario.vehicles, *spawned])
+        signals = [f"{v}.{a}" for v in vehicles for a in ATTRIBUTES] + list(SIM_SIGNALS)
+        return SystemInfo(tuple(signals), tuple(problems), {"scenario": scenario})
+
+    @staticmethod
+    def _check_action(scenario: Scenario, spawned: dict[str, int], i: int, action: str,
+                      params: Mapping[str, Any]) -> list[Problem]:  # fmt: skip
+        out = []
+
+        def bad(key: str, message: str) -> None:
+            out.append(Problem(("execute", i, "params", key), message, "system"))
+
+        if action == "spawn":
+            vid, route, vtype, lane = (params.get(k) for k in ("vehicle", "route", "type", "lane"))
+            if isinstance(vid, str):
+                if vid in scenario.vehicles:
+                    bad("vehicle", f"vehicle {vid!r} is already declared in the route files")
+                elif vid in spawned:
+                    bad("vehicle", f"vehicle {vid!r} is already spawned by execute entry {spawned[vid]}")
+                elif vid == "sim":
+                    bad("vehicle", "'sim' is reserved for the simulation's signals")
+                else:
+                    spawned[vid] = i
+            if isinstance(route, str) and route not in scenario.routes:
+                bad("route", f"unknown route {route!r}{_suggest(route, scenario.routes)}")
+            if isinstance(vtype, str) and vtype not in scenario.types:
+                bad("type", f"unknown vehicle type {vtype!r}{_suggest(vtype, scenario.types)}")
+            edge = scenario.route_edges.get(route) if isinstance(route, str) else None
+            if isinstance(lane, int) and edge is not None and lane >= scenario.lanes.get(edge, 0):
+                bad("lane", f"lane {lane} does not exist: edge {edge!r} has {scenario.lanes.get(edge, 0)} lane(s)")
+        elif action == "lane":
+            lane, most = params.get("lane"), max(scenario.lanes.values(), default=0)
+            if isinstance(lane, int) and not isinstance(lane, bool) and lane >= most:
+                bad("lane", f"lane {lane} does not exist: no edge of the network has more than {most} lane(s)")
+        elif action == "signal":
+            tls, state = params.get("tls"), params.get("state")
+            if isinstance(tls, str) and tls not in scenario.signals:
+                bad("tls", f"unknown traffic light {tls!r}{_suggest(tls, scenario.signals)}"
+                    + ("" if scenario.signals else " (the network has none)"))  # fmt: skip
+            elif isinstance(tls, str) and isinstance(state, str) and len(state) != scenario.signals[tls]:
+                bad("state", f"traffic light {tls!r} controls {scenario.signals[tls]} links; "
+                    f"the state has {len(state)} letters")  # fmt: skip
+        return out
+
+    def create(self, spec: SystemSpec, case: "TestCase") -> SumoSystem:
+        if not spec.config:
+            raise SystemFailure("a 'sumo' system needs 'config': a .sumocfg file")
+        scenario = read_scenario(spec.config)
+        if scenario.problems:
+            raise SystemFailure(f"{spec.config}: {scenario.problems[0]}")
+        options = {**scenario.options, **parse_options(list(spec.options))[0]}
+        spawned = [e.params["vehicle"] for e in case.entries if e.action == "sumo.spawn"]
+        tracked = signal_vehicles([*scenario.vehicles, *spawned])
+        return SumoSystem(scenario, options, case.tick, tracked, spawns=bool(spawned))
+
+
+SUMO = SumoType()
+"""The ``sumo`` system type, as registered."""
+
+
+def register(registry: "Registry") -> "Registry":
+    """Add the ``sumo`` system type and its ``sumo.*`` actions to *registry*."""
+    registry.register_system(SUMO)
+    for action, leaf in _LEAVES.items():
+        registry.register(f"sumo.{action}", leaf, kind="behavior", params_schema=actions.PARAMS[action],
+                          description=_DESCRIPTIONS[action])  # fmt: skip
+    return registry
+
+
+def config_path(case_source: str, config: str) -> str:
+    """*config* resolved relative to the directory of the case file *case_source*."""
+    return os.path.join(os.path.dirname(os.path.abspath(case_source)), config)
+
+
+__all__ += ["INSTALL_HINT", "config_path"]

@@ -1,0 +1,400 @@
+"""What a SUMO scenario declares, read at load time without starting SUMO.
+
+A test case names a ``.sumocfg`` file; before any run, the loader needs to know
+which vehicles, routes, vehicle types, lanes and traffic lights it declares (so
+that ``ego.gap`` or ``{"vehicle": "egoo"}`` is a validation error with a JSON
+path, not a surprise at run time), and it must be sure the scenario cannot make
+the simulator read or write files of its own choosing. This module does both by
+reading the XML itself, with :mod:`xml.parsers.expat` (line numbers for every
+problem, no DTDs, no entities, no external references):
+
+* the configuration may hold only the input files (``net-file``,
+  ``route-files``, ``additional-files``) and the options of :data:`OPTIONS`;
+  anything else - an output, a log, ``begin``/``end``, the step length - is a
+  problem, because a blocklist of SUMO's many output options would miss one;
+* every file it names must be a relative path to a regular file inside the
+  configuration's own directory (no absolute path, no ``..``, no symlink out);
+* no element of any of those files may name another file (``file``, ``href``,
+  ``output``, ... attributes, ``<include>``) or equip a device that writes one
+  (``<param key="device.*">``, ``has.*.device``).
+
+The result is a :class:`Scenario`; problems are plain strings here and become
+:class:`~btgen_pytrees.errors.Problem` s with the case's JSON path in
+:mod:`.system_type`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import stat
+import xml.parsers.expat
+from dataclasses import dataclass, field
+from typing import Callable, Iterator, Mapping
+
+__all__ = ["Scenario", "ScenarioError", "read_scenario", "OPTIONS", "parse_options", "MAX_XML_BYTES"]
+
+MAX_XML_BYTES = 64 * 1024 * 1024
+"""Largest configuration, network, route or additional file read (64 MiB)."""
+
+INPUTS = ("net-file", "route-files", "additional-files")
+"""Options of a ``.sumocfg`` that name input files (each checked, then read)."""
+
+
+def _number(low: float, high: float = math.inf, integer: bool = False) -> Callable[[str], str | None]:
+    def check(text: str) -> str | None:
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            return f"expected {'an integer' if integer else 'a number'}, not {text!r}"
+        if not (low <= value <= high) or not math.isfinite(value):
+            return f"{text} is out of range [{low:g}, {high:g}]"
+        return None
+
+    return check
+
+
+def _choice(*allowed: str) -> Callable[[str], str | None]:
+    def check(text: str) -> str | None:
+        return None if text in allowed else f"expected one of {', '.join(allowed)}, not {text!r}"
+
+    return check
+
+
+_BOOL = _choice("true", "false")
+
+OPTIONS: Mapping[str, tuple[Callable[[str], str | None], str]] = {
+    "seed": (_number(0, 2**31 - 1, integer=True), "random seed (integer)"),
+    "collision.action": (_choice("none", "warn", "teleport", "remove"), "what SUMO does on a collision"),
+    "collision.check-junctions": (_BOOL, "also detect collisions on junctions"),
+    "collision.mingap-factor": (_number(0, 10), "share of minGap that counts as a collision"),
+    "collision.stoptime": (_number(0, 3600), "seconds colliding vehicles stop before the action"),
+    "lateral-resolution": (_number(0.01, 10), "sublane width in m (switches on the sublane model)"),
+    "default.action-step-length": (_number(0, 10), "seconds between drivers' decisions"),
+    "default.speeddev": (_number(0, 1), "default speed deviation of vehicle types"),
+    "default.sigma": (_number(0, 1), "default driver imperfection"),
+    "default.carfollowmodel": (_choice("Krauss", "KraussPS", "KraussOrig1", "SmartSK", "Daniel1", "IDM", "IDMM",
+                                       "EIDM", "PWagner2009", "BKerner", "Wiedemann", "W99", "Rail", "ACC", "CACC",
+                                       "CC"), "car-following model of types that name none"),  # fmt: skip
+    "time-to-teleport": (_number(-1, 1e6), "seconds a blocked vehicle waits before it is teleported (-1: never)"),
+    "time-to-teleport.highways": (_number(-1, 1e6), "the same on fast roads"),
+    "max-depart-delay": (_number(-1, 1e6), "seconds a vehicle may wait to depart before it is dropped"),
+    "lanechange.duration": (_number(0, 100), "seconds a lane change takes (0: instant)"),
+    "step-method.ballistic": (_BOOL, "ballistic instead of Euler position update"),
+    "ignore-junction-blocker": (_number(-1, 1e6), "ignore vehicles blocking a junction after this many seconds"),
+    "emergencydecel.warning-threshold": (_number(0, 100), "warn only above this ratio of emergency braking"),
+}
+"""Options a case (or its ``.sumocfg``) may set: name -> (value check, description).
+
+Only options that change how traffic behaves; none names a file. The list is
+documented in docs/format.md and docs/sumo.md.
+"""
+
+
+class ScenarioError(ValueError):
+    """The configuration cannot be used; ``str()`` says why, naming the file and line."""
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """The parts of a SUMO scenario a test case may refer to.
+
+    Attributes:
+        config: absolute path of the ``.sumocfg``
+        vehicles: vehicle id -> depart time text, for ``<vehicle>``/``<trip>`` elements
+        routes: route (and route distribution) ids
+        types: vehicle type (and type distribution) ids, including SUMO's defaults
+        lanes: edge id -> number of lanes (internal edges left out)
+        route_edges: route id -> its first edge (for lane checks of ``sumo.spawn``)
+        signals: traffic light id -> number of controlled links (length of a state)
+        options: options the configuration sets itself
+        problems: what is wrong, one line each (``file:line: message``)
+    """
+
+    config: str
+    vehicles: Mapping[str, str] = field(default_factory=dict)
+    routes: frozenset[str] = frozenset()
+    types: frozenset[str] = frozenset()
+    lanes: Mapping[str, int] = field(default_factory=dict)
+    route_edges: Mapping[str, str] = field(default_factory=dict)
+    signals: Mapping[str, int] = field(default_factory=dict)
+    options: Mapping[str, str] = field(default_factory=dict)
+    problems: tuple[str, ...] = ()
+
+
+DEFAULT_TYPES = ("DEFAULT_VEHTYPE", "DEFAULT_PEDTYPE", "DEFAULT_BIKETYPE", "DEFAULT_CONTAINERTYPE",
+                 "DEFAULT_TAXITYPE", "DEFAULT_RAILTYPE")  # fmt: skip
+
+# attributes that make SUMO read or write another file
+_FILE_ATTRIBUTES = frozenset({"file", "files", "href", "output", "outputFile", "filename", "path", "src", "xsi:schemaLocation"})
+_FILE_ELEMENTS = frozenset({"include", "xi:include"})
+_PARAM_PREFIXES = ("device.", "has.")
+_SPLIT = re.compile(r"[,\s]+")
+
+
+def parse_options(options: tuple[str, ...] | list[str]) -> tuple[dict[str, str], list[tuple[int, str]]]:
+    """Split ``["--seed", "7", "--collision.action=warn"]`` into ``{name: value}`` and problems.
+
+    Each problem is ``(index in options, message)``.
+
+    >>> parse_options(["--seed", "7", "--collision.action=warn"])
+    ({'seed': '7', 'collision.action': 'warn'}, [])
+    >>> parse_options(["--fcd-output", "x.xml"])[1]
+    [(0, "option '--fcd-output' is not allowed for SUMO cases (see the allow-list in docs/sumo.md)")]
+    """
+    values: dict[str, str] = {}
+    problems: list[tuple[int, str]] = []
+    i = 0
+    while i < len(options):
+        item = options[i]
+        if not isinstance(item, str) or not item.startswith("--"):
+            problems.append((i, f"expected an option such as '--seed', not {item!r}"))
+            i += 1
+            continue
+        name, eq, value = item[2:].partition("=")
+        if name not in OPTIONS:
+            from difflib import get_close_matches
+
+            hint = get_close_matches(name, list(OPTIONS), n=1)
+            tip = f" (did you mean '--{hint[0]}'?)" if hint else " (see the allow-list in docs/sumo.md)"
+            problems.append((i, f"option {'--' + name!r} is not allowed for SUMO cases{tip}"))
+            i += 1 if eq else 2
+            continue
+        if not eq:
+            if i + 1 >= len(options) or not isinstance(options[i + 1], str):
+                problems.append((i, f"option '--{name}' needs a value"))
+                break
+            i += 1
+            value = options[i]
+        why = OPTIONS[name][0](value)
+        if why:
+            problems.append((i, f"--{name}: {why}"))
+        elif name in values:
+            problems.append((i, f"option '--{name}' is given twice"))
+        else:
+            values[name] = value
+        i += 1
+    return values, problems
+
+
+# ---------------------------------------------------------------------------
+# reading XML with line numbers
+
+
+def _elements(path: str, shown: str) -> Iterator[tuple[str, Mapping[str, str], int, int]]:
+    """Yield ``(tag, attributes, line, depth)`` of every element of the XML file *path* (root: depth 1).
+
+    Raises:
+        ScenarioError: unreadable, too large, not well-formed, or it declares a DTD.
+    """
+    try:
+        info = os.stat(path)
+    except OSError as exc:
+        raise ScenarioError(f"{shown}: cannot read: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise ScenarioError(f"{shown}: not a regular file")
+    if info.st_size > MAX_XML_BYTES:
+        raise ScenarioError(f"{shown}: {info.st_size} bytes; the limit is {MAX_XML_BYTES}")
+    found: list[tuple[str, Mapping[str, str], int, int]] = []
+    depth = [0]
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag: str, attributes: dict[str, str]) -> None:
+        depth[0] += 1
+        found.append((tag, attributes, parser.CurrentLineNumber, depth[0]))
+
+    def end(_tag: str) -> None:
+        depth[0] -= 1
+
+    def doctype(*_args: object) -> None:
+        raise ScenarioError(f"{shown}:{parser.CurrentLineNumber}: a DOCTYPE is not allowed in a SUMO file of a test case")
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.StartDoctypeDeclHandler = doctype
+    parser.EntityDeclHandler = doctype
+    try:
+        with open(path, "rb") as fh:
+            while True:
+                chunk = fh.read(1 << 20)
+                parser.Parse(chunk, not chunk)
+                yield from found
+                found.clear()
+                if not chunk:
+                    break
+    except xml.parsers.expat.ExpatError as exc:
+        raise ScenarioError(f"{shown}:{exc.lineno}: not well-formed XML: {xml.parsers.expat.ErrorString(exc.code)}") from None
+    except OSError as exc:
+        raise ScenarioError(f"{shown}: cannot read: {exc.strerror or exc}") from None
+
+
+def _inside(base: str, name: str, where: str) -> str:
+    """The absolute path of file *name* named by a ``.sumocfg`` in directory *base*; raise if it escapes."""
+    if os.path.isabs(name) or re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:", name) or name.startswith(("\\", "~")):
+        raise ScenarioError(f"{where}: {name!r} must be a relative path inside the configuration's directory")
+    if ".." in re.split(r"[\\/]", name):
+        raise ScenarioError(f"{where}: {name!r} must not leave the configuration's directory ('..')")
+    if name.endswith(".gz"):
+        raise ScenarioError(f"{where}: {name!r}: compressed files are not supported")
+    full = os.path.join(base, name)
+    real_base, real = os.path.realpath(base), os.path.realpath(full)
+    if os.path.commonpath([real_base, real]) != real_base:
+        raise ScenarioError(f"{where}: {name!r} leads outside the configuration's directory (a symbolic link)")
+    return full
+
+
+def read_scenario(config: str) -> Scenario:
+    """The :class:`Scenario` of the ``.sumocfg`` at *config*; problems are in :attr:`Scenario.problems`."""
+    config = os.path.abspath(config)
+    shown = os.path.basename(config)
+    base = os.path.dirname(config)
+    try:
+        options, inputs = _read_config(config, shown, base)
+        net = inputs.get("net-file", [])
+        if len(net) != 1:
+            raise ScenarioError(f"{shown}: needs exactly one 'net-file' (found {len(net)})")
+        lanes: dict[str, int] = {}
+        signals: dict[str, int] = {}
+        _read_net(net[0], os.path.relpath(net[0], base), lanes, signals)
+        demand = _Demand(lanes)
+        for path in inputs.get("route-files", []) + inputs.get("additional-files", []):
+            demand.read(path, os.path.relpath(path, base))
+        demand.check()
+    except ScenarioError as exc:
+        return Scenario(config, problems=(str(exc),))
+    return Scenario(config, demand.vehicles, frozenset(demand.routes), frozenset(demand.types), lanes,
+                    demand.route_edges, signals, options)  # fmt: skip
+
+
+_SECTIONS = frozenset({
+    "input", "output", "time", "processing", "routing", "report", "random_number", "gui_only", "traci_server",
+    "mesoscopic", "emissions", "communication", "battery", "pedestrian", "ssm_device", "toc_device",
+})  # fmt: skip
+
+
+def _read_config(config: str, shown: str, base: str) -> tuple[dict[str, str], dict[str, list[str]]]:
+    options: dict[str, str] = {}
+    inputs: dict[str, list[str]] = {}
+    empty = True
+    for tag, attributes, line, depth in _elements(config, shown):
+        where = f"{shown}:{line}"
+        empty = False
+        if depth == 1:
+            if tag not in ("configuration", "sumoConfiguration"):
+                raise ScenarioError(f"{where}: not a SUMO configuration (root element <{tag}>)")
+            continue
+        if depth == 2 and tag in _SECTIONS:
+            if attributes:
+                raise ScenarioError(f"{where}: write options as <name value=\"...\"/> elements inside <{tag}>")
+            continue
+        value = attributes.get("value")
+        if value is None or len(attributes) != 1:
+            raise ScenarioError(f"{where}: <{tag}> needs exactly one attribute, 'value'")
+        if tag in INPUTS:
+            names = [n for n in _SPLIT.split(value.strip()) if n]
+            inputs.setdefault(tag, []).extend(_inside(base, n, where) for n in names)
+        elif tag in OPTIONS:
+            why = OPTIONS[tag][0](value)
+            if why:
+                raise ScenarioError(f"{where}: {tag}: {why}")
+            options[tag] = value
+        else:
+            raise ScenarioError(f"{where}: option {tag!r} is not allowed in the configuration of a test case "
+                                f"(only {', '.join(INPUTS)} and the options of docs/sumo.md)")  # fmt: skip
+    if empty:
+        raise ScenarioError(f"{shown}: empty configuration")
+    return options, inputs
+
+
+def _check_element(tag: str, attributes: Mapping[str, str], where: str) -> None:
+    if tag in _FILE_ELEMENTS:
+        raise ScenarioError(f"{where}: <{tag}> is not allowed (a test case must not make SUMO read other files)")
+    for name in attributes:
+        if name in _FILE_ATTRIBUTES or name.lower().endswith(("file", "output")):
+            raise ScenarioError(f"{where}: attribute {name!r} of <{tag}> names a file; "
+                                "a test case must not make SUMO read or write files")  # fmt: skip
+    if tag == "param" and attributes.get("key", "").startswith(_PARAM_PREFIXES):
+        raise ScenarioError(f"{where}: <param key={attributes['key']!r}> equips a device (devices may write files)")
+
+
+def _read_net(path: str, shown: str, lanes: dict[str, int], signals: dict[str, int]) -> None:
+    edge: str | None = None
+    logic = ""
+    empty = True
+    for tag, attributes, line, depth in _elements(path, shown):
+        where = f"{shown}:{line}"
+        if depth == 1 and tag != "net":
+            raise ScenarioError(f"{where}: not a SUMO network (root element <{tag}>)")
+        empty = False
+        _check_element(tag, attributes, where)
+        if tag == "edge":
+            edge = None if attributes.get("function") == "internal" else attributes.get("id")
+            if edge is not None:
+                lanes[edge] = 0
+        elif tag == "lane" and edge is not None:
+            lanes[edge] += 1
+        elif tag == "tlLogic":
+            logic = attributes.get("id", "")
+            signals.setdefault(logic, 0)
+        elif tag == "phase" and depth == 3:
+            signals[logic] = max(signals.get(logic, 0), len(attributes.get("state", "")))
+    if empty:
+        raise ScenarioError(f"{shown}: empty network file")
+
+
+class _Demand:
+    """Collects vehicles, routes and types from route and additional files."""
+
+    def __init__(self, lanes: Mapping[str, int]):
+        self.lanes = lanes
+        self.vehicles: dict[str, str] = {}
+        self.routes: set[str] = set()
+        self.types: set[str] = set(DEFAULT_TYPES)
+        self.route_edges: dict[str, str] = {}
+        self.uses: list[tuple[str, str, str, str]] = []  # (where, vehicle, "type"/"route", id)
+
+    def read(self, path: str, shown: str) -> None:
+        in_distribution = False
+        empty = True
+        for tag, attributes, line, depth in _elements(path, shown):
+            where = f"{shown}:{line}"
+            if depth == 1:
+                if tag not in ("routes", "additional"):
+                    raise ScenarioError(f"{where}: not a SUMO route or additional file (root element <{tag}>)")
+                empty = False
+                continue
+            _check_element(tag, attributes, where)
+            ident = attributes.get("id")
+            if depth == 2:
+                in_distribution = tag == "routeDistribution"
+            if tag in ("vType", "vTypeDistribution") and ident:
+                self.types.add(ident)
+            elif tag == "routeDistribution" and ident:
+                self.routes.add(ident)
+            elif tag == "route":
+                edges = attributes.get("edges", "").split()
+                for e in edges:
+                    if e not in self.lanes:
+                        raise ScenarioError(f"{where}: the route uses edge {e!r}, which the network does not have")
+                if ident and (depth == 2 or in_distribution):
+                    self.routes.add(ident)
+                    if edges:
+                        self.route_edges[ident] = edges[0]
+            elif tag in ("vehicle", "trip") and depth == 2:
+                if not ident:
+                    raise ScenarioError(f"{where}: <{tag}> without an id")
+                if ident in self.vehicles:
+                    raise ScenarioError(f"{where}: vehicle {ident!r} is declared twice")
+                self.vehicles[ident] = attributes.get("depart", "")
+                for key in ("type", "route"):
+                    if key in attributes:
+                        self.uses.append((where, ident, key, attributes[key]))
+        if empty:
+            raise ScenarioError(f"{shown}: empty file")
+
+    def check(self) -> None:
+        for where, vehicle, key, ident in self.uses:
+            known = self.types if key == "type" else self.routes
+            if ident not in known:
+                raise ScenarioError(f"{where}: vehicle {vehicle!r} uses {key} {ident!r}, which no file declares")

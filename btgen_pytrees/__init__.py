@@ -14,10 +14,18 @@ load/validate (:mod:`.loader`) → timeline graph (:mod:`.timeline`) → constru
 'fig1'
 """
 
-from .construct import generate
-from .errors import InvalidTestCase, Problem
-from .loader import load
-from .timeline import timeline
+import sys as _sys
+
+if _sys.stdout is None:  # pragma: no cover - closed stdout (">&-", pythonw): py_trees reads sys.stdout.encoding at import
+    import os as _os
+
+    _sys.stdout = open(_os.devnull, "w", encoding="utf-8")  # noqa: SIM115 - lives as long as the process
+    _sys.stdout.btgen_closed = True  # type: ignore[attr-defined]  # the CLI refuses to run (exit 2)
+
+from .construct import generate  # noqa: E402
+from .errors import InvalidTestCase, Problem  # noqa: E402
+from .loader import load  # noqa: E402
+from .timeline import timeline  # noqa: E402
 
 __version__ = "0.1.0"
 __all__ = ["load", "generate", "timeline", "InvalidTestCase", "Problem", "__version__"]

@@ -11,16 +11,29 @@ A progress line is drawn on stderr when it is a terminal, nothing otherwise.
 
 from __future__ import annotations
 
-import pathlib
+import multiprocessing
+import multiprocessing.context
+import os
+import signal
+import stat
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import time
 from dataclasses import dataclass, field
-from functools import partial
+from multiprocessing.connection import Connection, wait
 from typing import Callable, Iterable, Sequence, TextIO
 
-from .output import write_file
+from .errors import MAX_LINE, Interrupt, is_interrupt, printable, shorten
 
-__all__ = ["Outcome", "expand", "output_names", "process", "summary", "job_validate", "job_show", "job_run"]
+__all__ = ["Outcome", "Interrupted", "expand", "output_names", "process", "summary", "job_validate", "job_show",
+           "job_run", "EXIT_ERROR", "NOT_RUN"]  # fmt: skip
+
+EXIT_ERROR = 1
+"""Code of a file whose user code (plugin, factory, leaf) raised or killed its worker: like a run's verdict ``error``."""
+
+NOT_RUN = 130
+"""Code of a file a Ctrl-C left unprocessed."""
+
+WORDS = {0: "ok", 1: "FAIL", 2: "INVALID", 3: "ERROR"}
 
 
 @dataclass
@@ -33,6 +46,9 @@ class Outcome:
         summary: one line for the summary table
         problems: rendered ``FILE: /pointer: message`` lines (for code 2)
         written: files written for it
+        result: the word in the summary's result column (default: from *code*)
+        outputs: ``(target, data)`` the job produced; the parent process writes
+            them (workers never write files, so a killed worker leaves none half-written)
     """
 
     path: str
@@ -40,46 +56,127 @@ class Outcome:
     summary: str
     problems: list[str] = field(default_factory=list)
     written: list[str] = field(default_factory=list)
+    result: str = ""
+    outputs: list[tuple[str, str | bytes]] = field(default_factory=list, repr=False)
+    junit: str = field(default="", repr=False)
+
+    @property
+    def word(self) -> str:
+        """The result column: ``ok``, ``FAIL``, ``INVALID``, ``ERROR``, ... ."""
+        return self.result or WORDS.get(self.code, str(self.code))
 
 
 def expand(paths: Iterable[str]) -> list[str]:
-    """Files as given, directories replaced by their ``*.json`` files (recursive, sorted)."""
+    """Files as given, directories replaced by the ``*.json`` entries under them (recursive, sorted).
+
+    The walk is iterative (a tree 1,000 folders deep is fine) and does not
+    follow symbolic links to directories (no loops). Every ``*.json`` entry that
+    is not a directory is listed - a dangling symlink, a FIFO or a device too -
+    so the loader reports it instead of it being skipped in silence.
+    """
     out: list[str] = []
     for raw in paths:
-        path = pathlib.Path(raw)
-        if path.is_dir():
-            out.extend(str(p) for p in sorted(path.rglob("*.json")) if p.is_file())
-        else:
+        if not os.path.isdir(raw):
             out.append(raw)
+            continue
+        found: list[str] = []
+        stack = [raw]
+        while stack:
+            folder = stack.pop()
+            try:
+                with os.scandir(folder) as listing:
+                    items = list(listing)
+            except OSError:
+                found.append(folder)  # unreadable folder: the loader says why
+                continue
+            for item in items:
+                try:
+                    is_dir = item.is_dir(follow_symlinks=False)
+                except OSError:
+                    is_dir = False
+                if is_dir:
+                    stack.append(item.path)
+                elif item.name.endswith(".json"):
+                    found.append(item.path)
+        out.extend(sorted(found, key=_path_key))
     return out
 
 
+def _path_key(path: str) -> tuple[str, ...]:
+    """Sort by path components, so ``a/b.json`` and ``a-b.json`` order as ``pathlib`` does."""
+    return tuple(path.split(os.sep))
+
+
 def output_names(paths: Sequence[str], suffix: str) -> list[str]:
-    """``<stem><suffix>`` per path, made unique (``x.json`` twice → ``x``, ``x-2``) in input order."""
-    seen: dict[str, int] = {}
+    """``<stem><suffix>`` per path, unique over the whole batch, in input order.
+
+    A stem used by several inputs gets ``-2``, ``-3``, ... on its second and
+    later uses, skipping every name another input has (or was given), compared
+    case-insensitively (a case-insensitive disk must not merge two reports):
+    ``a/x.json``, ``b/x.json`` and ``x-2.json`` give ``x``, ``x-3`` and ``x-2``.
+    Characters a file name cannot hold safely (control characters) are replaced.
+    """
+    stems = [_safe_stem(p) for p in paths]
+    taken = {stem.casefold() for stem in stems}
+    first: set[str] = set()
     names = []
-    for p in paths:
-        stem = pathlib.Path(p).stem or "case"
-        seen[stem] = seen.get(stem, 0) + 1
-        names.append(f"{stem}{suffix}" if seen[stem] == 1 else f"{stem}-{seen[stem]}{suffix}")
+    for stem in stems:
+        key = stem.casefold()
+        if key not in first:
+            first.add(key)
+            names.append(stem + suffix)
+            continue
+        n = 2
+        while f"{stem}-{n}".casefold() in taken:
+            n += 1
+        taken.add(f"{stem}-{n}".casefold())
+        names.append(f"{stem}-{n}{suffix}")
     return names
 
 
+def _safe_stem(path: str) -> str:
+    name = os.path.basename(path.rstrip(os.sep))
+    stem = name[: -len(".json")] if name.endswith(".json") and len(name) > len(".json") else name
+    stem = "".join("_" if ord(c) < 32 or ord(c) == 127 else c for c in stem)
+    return stem if stem not in ("", ".", "..") else "case"
+
+
 def _guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
-    """Run *job*, turning invalid input into code 2 and anything else into code 3 (never raise)."""
+    """Run *job*, turning every exception into the file's outcome (never raise).
+
+    Invalid input is code 2. Anything user code raises - ``SystemExit`` and
+    ``KeyboardInterrupt`` included, since in a worker they can only come from a
+    plugin, a factory or a leaf - is this file's error (code 1); it never ends
+    the batch or sets the CLI's exit code.
+    """
     from .errors import InvalidTestCase
-    from .leaves import PluginError
+    from .leaves import FactoryError, PluginError
     from .render import GraphvizMissing
 
     try:
         return job(path, *args)
     except InvalidTestCase as error:
         lines = [p.render(error.source) for p in error.problems]
-        return Outcome(path, 2, f"invalid ({len(lines)} problem{'s' if len(lines) != 1 else ''})", lines)
-    except (PluginError, GraphvizMissing) as error:
+        return Outcome(path, 2, f"invalid ({len(lines)} problem{'s' if len(lines) != 1 else ''})", _capped(lines))
+    except (PluginError, FactoryError, GraphvizMissing) as error:
         return Outcome(path, 2, str(error).splitlines()[0], [f"{path}: {error}"])
     except Exception as exc:  # noqa: BLE001 - one bad file must not stop the batch
         return Outcome(path, 3, f"internal error: {type(exc).__name__}: {exc}")
+    except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt from user code
+        if is_interrupt(exc):
+            raise
+        why = f"error: user code raised {type(exc).__name__}" + (f": {exc}" if str(exc) else "")
+        return Outcome(path, EXIT_ERROR, why, [f"{path}: {why}"], result="ERROR")
+
+
+def _capped(lines: list[str], limit: int | None = None) -> list[str]:
+    """The first *limit* lines, then one ``… and N more problems`` line."""
+    from .errors import MAX_PROBLEMS
+
+    limit = MAX_PROBLEMS if limit is None else limit
+    if len(lines) <= limit:
+        return lines
+    return lines[:limit] + [f"… and {len(lines) - limit} more problems"]
 
 
 def job_validate(path: str, plugins: Sequence[str]) -> Outcome:
@@ -91,6 +188,7 @@ def job_validate(path: str, plugins: Sequence[str]) -> Outcome:
 
 
 def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None) -> Outcome:
+    """Render one tree; with a *target* it is an output to write, else the text to print."""
     from .construct import generate
     from .leaves import default_registry
     from .loader import load
@@ -101,32 +199,135 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
     case = load(path, registry=registry)
     text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=max_depth)
     if target is None:
-        return Outcome(path, 0, f"{fmt}: {len(text)} {'bytes' if isinstance(text, bytes) else 'characters'}")
-    write_file(target, text)
-    return Outcome(path, 0, f"{fmt} -> {target}", written=[target])
+        return Outcome(path, 0, fmt, outputs=[("-", text)])
+    return Outcome(path, 0, fmt, outputs=[(target, text)])
 
 
-def job_run(path: str, plugins: Sequence[str], target: str | None) -> Outcome:
+def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
+            junit: bool = False) -> Outcome:  # fmt: skip
+    """Run one case; outputs: ``<target>.report.json``, ``<target>.junit.xml`` and, with *plot*
+    (``svg``/``png``/``html``), ``<target>.<plot>``. With *junit* the JUnit text also comes back
+    (``Outcome.junit``) for one batch-wide file."""
     from .leaves import default_registry
     from .loader import load
     from .run import run
 
     registry = default_registry(plugins)
-    report = run(load(path, registry=registry), registry=registry)
-    written = []
+    case = load(path, registry=registry)
+    report = run(case, registry=registry)
+    outputs: list[tuple[str, str | bytes]] = []
     if target is not None:
-        write_file(f"{target}.report.json", report.to_json())
-        write_file(f"{target}.junit.xml", report.to_junit())
-        written = [f"{target}.report.json", f"{target}.junit.xml"]
+        outputs = [(f"{target}.report.json", report.to_json()), (f"{target}.junit.xml", report.to_junit())]
+        if plot is not None:
+            from .run.plot import plot_bytes
+
+            outputs.append((f"{target}.{plot}", plot_bytes(report, case, plot)))
     line = f"{report.verdict} after {report.duration:g} s" + (f": {report.message}" if report.message else "")
-    return Outcome(path, 0 if report.passed else 1, line, written=written)
+    word = "" if report.verdict in ("pass", "fail") else report.verdict.upper()
+    outcome = Outcome(path, 0 if report.passed else 1, line, result=word, outputs=outputs)
+    if junit:
+        outcome.junit = report.to_junit()
+    return outcome
+
+
+class Interrupted(Exception):
+    """The batch was stopped by a signal (Ctrl-C, SIGTERM); *outcomes* are the files finished so far.
+
+    Files that had not finished get an outcome with code :data:`NOT_RUN` (``not run``).
+    """
+
+    def __init__(self, signum: int, outcomes: list[Outcome]):
+        super().__init__(f"interrupted by signal {signum}")
+        self.signum = signum
+        self.outcomes = outcomes
+
+
+class _Stop(Interrupt):
+    """Raised in a worker by SIGTERM, so ``finally`` blocks (temporary files) run before it exits."""
+
+
+def _stop(signum: int, frame: object) -> None:
+    raise _Stop(signum)
+
+
+def _worker(conn: Connection) -> None:
+    """A worker process: run tasks from *conn* one at a time until told to stop.
+
+    Ctrl-C reaches every process of the terminal's group: workers ignore it and
+    let the parent decide (it stops them with SIGTERM, then SIGKILL).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _stop)
+    try:
+        while True:
+            try:
+                task = conn.recv()
+            except EOFError:
+                return
+            if task is None:
+                return
+            index, job, path, args = task
+            conn.send((index, _guard(job, path, *args)))
+    except (_Stop, BrokenPipeError):
+        return
+
+
+def _death(exitcode: int | None) -> str:
+    """Why a worker process ended, in words."""
+    if exitcode is None:
+        return "the worker process stopped answering"
+    if exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        hint = " (out of memory, or killed from outside)" if -exitcode == signal.SIGKILL else ""
+        return f"the worker process was killed by {name}{hint}"
+    return f"the worker process exited with status {exitcode} (os._exit or a crash in user code)"
+
+
+class _Slot:
+    """One worker process and the task it is running."""
+
+    def __init__(self, context: multiprocessing.context.BaseContext):
+        self.conn, child = context.Pipe()
+        self.process = context.Process(target=_worker, args=(child,), daemon=True)
+        self.process.start()
+        child.close()
+        self.task: int | None = None
+
+
+def _stop_all(slots: list[_Slot], grace: float = 0.5) -> None:
+    """Stop every worker: SIGTERM (finally blocks run, temporary files go), SIGKILL after *grace*."""
+    for slot in slots:
+        if slot.process.is_alive():
+            slot.process.terminate()
+    deadline = time.monotonic() + grace
+    for slot in slots:
+        slot.process.join(max(0.0, deadline - time.monotonic()))
+        if slot.process.is_alive():
+            slot.process.kill()
+            slot.process.join(1)
+        slot.conn.close()
 
 
 def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]], paths: Sequence[str], *,
-            workers: int = 1, progress: TextIO | None = None) -> list[Outcome]:  # fmt: skip
+            workers: int = 1, progress: TextIO | None = None, isolate: bool | None = None,
+            on_result: Callable[[Outcome], None] | None = None) -> list[Outcome]:  # fmt: skip
     """Run ``job(path, *args)`` for each path (``jobs_args[i]`` are path *i*'s extra arguments).
 
     Outcomes come back in input order whatever order the workers finish in.
+    With *isolate* (default: when there are several paths) every job runs in a
+    worker process, so user code that kills its process (``os._exit``, a
+    signal, the out-of-memory killer) costs only its own file: that file's
+    outcome is an error naming the cause, a new worker takes the next file.
+    *on_result* is called in this process with each outcome as it arrives
+    (the CLI writes the file's outputs there).
+
+    Raises:
+        Interrupted: on Ctrl-C (or a signal the caller turned into
+            KeyboardInterrupt) the workers are stopped at once and the
+            outcomes so far are attached.
     """
     results: list[Outcome | None] = [None] * len(paths)
     done = 0
@@ -138,33 +339,87 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
             progress.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{len(paths)}")
             progress.flush()
 
+    def partial() -> list[Outcome]:
+        return [r if r is not None else Outcome(p, NOT_RUN, "not run (interrupted)", result="NOT RUN")
+                for p, r in zip(paths, results)]  # fmt: skip
+
     tick()
-    if workers <= 1 or len(paths) <= 1:
-        for i, path in enumerate(paths):
-            results[i] = _guard(job, path, *jobs_args[i])
-            done += 1
-            tick()
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(partial(_guard, job, path, *jobs_args[i])): i for i, path in enumerate(paths)}
-            for future in as_completed(futures):
-                results[futures[future]] = future.result()
+    if isolate is None:
+        isolate = len(paths) > 1
+    slots: list[_Slot] = []
+    try:
+        if not isolate:
+            for i, path in enumerate(paths):
+                results[i] = _guard(job, path, *jobs_args[i])
+                if on_result is not None:
+                    on_result(results[i])  # type: ignore[arg-type]
                 done += 1
                 tick()
+        else:
+            context = multiprocessing.get_context()
+            pending = list(range(len(paths)))[::-1]  # a stack: pop() gives input order
+            slots = [_Slot(context) for _ in range(max(1, min(workers, len(paths))))]
+            while done < len(paths):
+                for slot in slots:
+                    if slot.task is None and pending:
+                        slot.task = pending.pop()
+                        slot.conn.send((slot.task, job, paths[slot.task], jobs_args[slot.task]))
+                busy = [s for s in slots if s.task is not None]
+                ready = wait([s.conn for s in busy] + [s.process.sentinel for s in busy])
+                for slot in busy:
+                    if slot.conn in ready or slot.process.sentinel in ready:
+                        outcome = None
+                        try:
+                            if slot.conn.poll():
+                                index, outcome = slot.conn.recv()
+                        except (EOFError, OSError):
+                            pass
+                        if outcome is None:  # the worker died with this task: blame it, start a new worker
+                            slot.process.join(1)
+                            index = slot.task
+                            outcome = Outcome(paths[index], EXIT_ERROR, f"error: {_death(slot.process.exitcode)}",
+                                              [f"{paths[index]}: error: {_death(slot.process.exitcode)}"], result="ERROR")  # fmt: skip
+                            _stop_all([slot])
+                            slots[slots.index(slot)] = _Slot(context)
+                        else:
+                            slot.task = None
+                        results[index] = outcome
+                        if on_result is not None:
+                            on_result(outcome)
+                        done += 1
+                        tick()
+    except KeyboardInterrupt as stop:
+        _stop_all(slots)
+        slots = []
+        if progress is not None:
+            progress.write("\n")
+        raise Interrupted(getattr(stop, "signum", signal.SIGINT), partial()) from None
+    finally:
+        for slot in slots:  # normal end: ask each worker to leave, then make sure
+            try:
+                slot.conn.send(None)
+            except OSError:
+                pass
+        _stop_all(slots, grace=2.0)
     if progress is not None:
         progress.write("\n")
     return [r for r in results if r is not None]
 
 
 def summary(outcomes: Sequence[Outcome]) -> str:
-    """The table printed at the end of a batch."""
-    words = {0: "ok", 1: "FAIL", 2: "INVALID", 3: "ERROR"}
-    width = max([len(o.path) for o in outcomes] + [4])
+    """The table printed at the end of a batch (every text escaped: see :func:`~.errors.printable`)."""
+    paths = [printable(o.path) for o in outcomes]
+    width = min(max([len(p) for p in paths] + [4]), 80)
     lines = [f"{'file'.ljust(width)}  result   detail", f"{'-' * width}  -------  ------"]
-    lines += [f"{o.path.ljust(width)}  {words.get(o.code, str(o.code)).ljust(7)}  {o.summary}" for o in outcomes]
-    counts = {word: sum(1 for o in outcomes if words.get(o.code) == word) for word in words.values()}
+    for path, o in zip(paths, outcomes):
+        detail = shorten(o.summary) + (f" -> {', '.join(os.path.basename(w) for w in o.written)}" if o.written else "")
+        lines.append(printable(f"{path.ljust(width)}  {o.word.ljust(7)}  {detail}", limit=MAX_LINE))
+    order = ["ok", "FAIL", "TIMEOUT", "INVALID", "ERROR", "NOT RUN"]
+    counts: dict[str, int] = {}
+    for o in sorted(outcomes, key=lambda o: order.index(o.word) if o.word in order else len(order)):
+        counts[o.word] = counts.get(o.word, 0) + 1
     lines.append("")
-    lines.append(f"{len(outcomes)} files: " + ", ".join(f"{n} {w.lower()}" for w, n in counts.items() if n))
+    lines.append(f"{len(outcomes)} files: " + ", ".join(f"{n} {w.lower()}" for w, n in counts.items()))
     return "\n".join(lines) + "\n"
 
 

@@ -11,23 +11,38 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
-from typing import Callable, Sequence, TextIO
+from typing import Any, Callable, NoReturn, Sequence, TextIO
 
 from . import __version__
 from . import batch
 from .construct import generate
-from .errors import InvalidTestCase, Problem
-from .leaves import PluginError, Registry, default_registry
+from .errors import MAX_PROBLEMS, Interrupt, InvalidTestCase, Problem, printable
+from .leaves import FactoryError, PluginError, Registry, default_registry
 from .loader import load, schema_text
-from .output import write_file
+from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, GraphvizMissing, render
 from .timeline import timeline
 
-__all__ = ["main"]
+__all__ = ["main", "MAX_JOBS"]
 
 EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
 COMMANDS = ("show", "validate", "run", "schema")
+
+MAX_JOBS = 64
+"""Most worker processes ``--jobs`` may ask for (more is a usage error)."""
+
+SUFFIX_FORMATS = {".svg": "svg", ".png": "png", ".dot": "dot", ".gv": "dot", ".json": "json", ".xml": "btcpp",
+                  ".txt": "unicode"}  # fmt: skip
+"""``show -o PATH`` without ``--format``: the format its suffix names."""
+
+FORMAT_SUFFIXES = {"unicode": ".txt", "ascii": ".txt", "matrix": ".txt", "btcpp": ".xml"}
+BINARY_FORMATS = ("png",)
+
+
+class UsageError(Exception):
+    """A command line that cannot work; one line on stderr, exit 2, nothing run."""
 
 
 def _can_encode(stream: TextIO, text: str = "·…") -> bool:
@@ -38,21 +53,32 @@ def _can_encode(stream: TextIO, text: str = "·…") -> bool:
         return False
 
 
-def _write(text: str | bytes, path: str | None) -> None:
-    if path is None or path == "-":
-        if isinstance(text, bytes):  # png
-            sys.stdout.flush()
-            sys.stdout.buffer.write(text)
-            sys.stdout.buffer.flush()
-        else:
-            sys.stdout.write(text)
-        return
-    write_file(path, text)
+def _print(text: str, stream: TextIO | None = None) -> None:
+    """Print *text* with every unsafe character escaped (see :func:`~.errors.printable`).
+
+    Characters the stream cannot encode become ``?``-style replacements rather
+    than an exception (non-UTF-8 file names, a C locale).
+    """
+    stream = stream or sys.stdout
+    safe = printable(text, keep_newlines=True)
+    encoding = getattr(stream, "encoding", None) or "utf-8"
+    try:
+        safe.encode(encoding)
+    except (UnicodeEncodeError, LookupError):
+        safe = safe.encode(encoding, "backslashreplace").decode(encoding, "replace")
+    stream.write(safe)
+
+
+def _err(text: str) -> None:
+    _print(text + "\n", sys.stderr)
 
 
 def _report_invalid(error: InvalidTestCase) -> int:
-    for problem in error.problems:
-        print(problem.render(error.source), file=sys.stderr)
+    problems = error.problems
+    for problem in problems[:MAX_PROBLEMS]:
+        _err(problem.render(error.source))
+    if len(problems) > MAX_PROBLEMS:
+        _err(f"{error.source}: … and {len(problems) - MAX_PROBLEMS} more problems")
     return EXIT_INVALID
 
 
@@ -60,24 +86,132 @@ def _registry(args: argparse.Namespace) -> Registry:
     return default_registry(args.plugin or ())
 
 
-def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.Outcome],
-           job_args: Callable[[int], tuple[object, ...]]) -> int:  # fmt: skip
-    """Process *files* in worker processes, report problems as they would be singly, end with a summary."""
-    if args.out_dir:
+def _stdout_text(text: str, fmt: str) -> str:
+    """A view's text made safe for a terminal without breaking its syntax.
+
+    JSON gets ``\\uNNNN`` escapes (still valid JSON), XML/SVG character
+    references, everything else the ``\\xNN`` escapes of :func:`printable`.
+    """
+    from .errors import UNSAFE
+
+    if fmt == "json":
+        return UNSAFE.sub(lambda m: m.group() if m.group() == "\n" else f"\\u{ord(m.group()):04x}", text)
+    if fmt in ("btcpp", "svg"):
+        return UNSAFE.sub(lambda m: m.group() if m.group() == "\n" else f"&#x{ord(m.group()):x};", text)
+    return printable(text, keep_newlines=True)
+
+
+def _write_stdout(data: str | bytes, fmt: str) -> None:
+    if isinstance(data, bytes):
+        sys.stdout.flush()
+        sys.stdout.buffer.write(data)
+        sys.stdout.buffer.flush()
+    else:
+        _print(_stdout_text(data, fmt))
+
+
+# -- checks made before any work ------------------------------------------------------------------
+
+
+def _check_output(path: str | None, option: str, inputs: Sequence[str], made_later: bool = False) -> None:
+    if path is None:
+        return
+    try:
+        check_target(path, option, inputs, made_later=made_later)
+    except OutputError as problem:
+        raise UsageError(str(problem)) from None
+
+
+def _check_out_dir(args: argparse.Namespace, files: list[str], writes_json: bool) -> None:
+    """--out-dir must be a directory or creatable, and (for .json outputs) not inside an input directory."""
+    out = args.out_dir
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise UsageError(f"--out-dir {out}: exists and is not a directory")
+    if not os.path.exists(out):
+        parent = os.path.dirname(os.path.abspath(out))
+        while not os.path.exists(parent):
+            parent = os.path.dirname(parent)
+        if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
+            raise UsageError(f"--out-dir {out}: cannot be created ({parent} is not a writable directory)")
+    elif not os.access(out, os.W_OK | os.X_OK):
+        raise UsageError(f"--out-dir {out}: is not writable")
+    if writes_json:
+        real = os.path.realpath(out)
+        for given in args.files:
+            if os.path.isdir(given):
+                top = os.path.realpath(given)
+                if real == top or real.startswith(top.rstrip(os.sep) + os.sep):
+                    raise UsageError(f"--out-dir {out}: is inside the input directory {given}, where its .json "
+                                     "outputs would be read as test cases; choose a directory outside it")  # fmt: skip
+
+
+def _check_jobs(args: argparse.Namespace) -> None:
+    if not 1 <= args.jobs <= MAX_JOBS:
+        raise UsageError(f"--jobs {args.jobs}: must be between 1 and {MAX_JOBS}")
+
+
+def _make_out_dir(args: argparse.Namespace) -> None:
+    try:
         os.makedirs(args.out_dir, exist_ok=True)
-    outcomes = _process(args, job, [job_args(i) for i in range(len(files))], files)
-    sys.stdout.write(batch.summary(outcomes))
+    except OSError as exc:
+        raise UsageError(f"--out-dir {args.out_dir}: cannot be created: {exc.strerror or exc}") from None
+
+
+# -- batch ----------------------------------------------------------------------------------------
+
+
+def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.Outcome],
+           job_args: Callable[[int], tuple[object, ...]], *, summary: bool = True,
+           after: Callable[[list[batch.Outcome]], None] | None = None) -> int:  # fmt: skip
+    """Process *files* in worker processes; write each file's outputs as it finishes, then a summary.
+
+    The output directory is made when the first output is written, so a batch
+    of invalid files leaves none.
+    """
+    made: list[bool] = []
+
+    def write(outcome: batch.Outcome) -> None:
+        outputs = [(t, d) for t, d in outcome.outputs if t != "-"]
+        if not outputs:
+            return
+        if args.out_dir and not made:
+            _make_out_dir(args)
+            made.append(True)
+        try:
+            outcome.written = commit(outputs)
+        except OSError as exc:
+            outcome.code, outcome.result = max(outcome.code, EXIT_INTERNAL), "ERROR"
+            outcome.summary = f"cannot write outputs: {exc.strerror or exc}"
+        outcome.outputs = [(t, d) for t, d in outcome.outputs if t == "-"]
+
+    try:
+        outcomes = _process(args, job, [job_args(i) for i in range(len(files))], files, on_result=write)
+    except batch.Interrupted as stop:
+        for outcome in stop.outcomes:
+            _problems(outcome)
+        _print(batch.summary(stop.outcomes))
+        _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}; files not run are marked NOT RUN")
+        return 128 + stop.signum
+    if after is not None:
+        after(outcomes)
+    if summary:
+        _print(batch.summary(outcomes))
     return max(o.code for o in outcomes)
 
 
+def _problems(outcome: batch.Outcome) -> None:
+    for line in outcome.problems[: MAX_PROBLEMS + 1]:
+        _err(line)
+
+
 def _process(args: argparse.Namespace, job: Callable[..., batch.Outcome], job_args: list[tuple[object, ...]],
-             files: list[str]) -> list[batch.Outcome]:  # fmt: skip
-    """Run *job* over *files* (in parallel when there are several); print each file's problems."""
-    workers = args.jobs if len(files) > 1 else 1
-    outcomes = batch.process(job, job_args, files, workers=workers, progress=batch.progress_stream())
+             files: list[str], on_result: Callable[[batch.Outcome], None] | None = None) -> list[batch.Outcome]:  # fmt: skip
+    """Run *job* over *files* (in worker processes when there are several); print each file's problems."""
+    workers = min(args.jobs, len(files))
+    outcomes = batch.process(job, job_args, files, workers=workers, progress=batch.progress_stream(),
+                             on_result=on_result)  # fmt: skip
     for outcome in outcomes:
-        for line in outcome.problems:
-            print(line, file=sys.stderr)
+        _problems(outcome)
     return outcomes
 
 
@@ -90,39 +224,74 @@ def _expand(args: argparse.Namespace) -> list[str]:
 
 
 def _single(args: argparse.Namespace) -> list[str] | None:
-    """The expanded file list when this is a batch, else None (one file given, not a directory)."""
-    if len(args.files) == 1 and not os.path.isdir(args.files[0]):
+    """The expanded file list when this is a batch (several files, a directory, or --out-dir), else None."""
+    if len(args.files) == 1 and not os.path.isdir(args.files[0]) and not args.out_dir:
         args.file = args.files[0]
         return None
     return _expand(args)
 
 
-def _targets(args: argparse.Namespace, files: list[str], suffix: str) -> list[str | None]:
+def _targets(args: argparse.Namespace, files: list[str], suffixes: Sequence[str]) -> list[str | None]:
+    """Each file's output base path in --out-dir (``None`` without it), checked against the inputs."""
     if not args.out_dir:
         return [None] * len(files)
-    return [os.path.join(args.out_dir, name) for name in batch.output_names(files, suffix)]
+    targets = [os.path.join(args.out_dir, name) for name in batch.output_names(files, "")]
+    for target in targets:
+        for suffix in suffixes:
+            _check_output(target + suffix, "--out-dir", files, made_later=True)
+    return list(targets)
+
+
+def _show_format(args: argparse.Namespace) -> str:
+    if args.format:
+        return str(args.format)
+    if args.output and args.output != "-" and not is_direct(args.output):
+        suffix = os.path.splitext(args.output)[1].lower()
+        return SUFFIX_FORMATS.get(suffix, "unicode")
+    return "unicode" if args.output or _can_encode(sys.stdout) else "ascii"
+
+
+def _refuse_binary_to_terminal(fmt: str, path: str | None) -> None:
+    if fmt in BINARY_FORMATS and (path is None or path == "-" or same_file(path, "/dev/stdout")) and sys.stdout.isatty():
+        raise UsageError(f"--format {fmt} is binary and stdout is a terminal: write it with -o FILE.{fmt} or redirect stdout")
 
 
 def cmd_show(args: argparse.Namespace) -> int:
     files = _single(args)
     if files is not None:
         if args.output:
-            print("btgen_pytrees: -o/--output takes one file; use --out-dir with several", file=sys.stderr)
-            return EXIT_INVALID
-        fmt = args.format or "unicode"
-        suffix = "." + {"unicode": "txt", "ascii": "txt", "matrix": "txt", "btcpp": "xml"}.get(fmt, fmt)
-        targets = _targets(args, files, suffix)
+            raise UsageError("-o/--output takes one file; use --out-dir with several")
+        fmt = args.format or ("unicode" if args.out_dir or _can_encode(sys.stdout) else "ascii")
+        if not args.out_dir and fmt in BINARY_FORMATS:
+            raise UsageError(f"--format {fmt} with several files needs --out-dir")
+        suffix = FORMAT_SUFFIXES.get(fmt, "." + fmt)
+        if args.out_dir:
+            _check_out_dir(args, files, writes_json=suffix == ".json")
+        targets = _targets(args, files, [suffix])
+
+        def shown(outcomes: list[batch.Outcome]) -> None:
+            for outcome in outcomes:
+                for target, data in outcome.outputs:
+                    if target == "-" and isinstance(data, str):
+                        _print(f"==> {outcome.path} <==\n")
+                        _write_stdout(data if data.endswith("\n") else data + "\n", fmt)
+
         return _batch(args, files, batch.job_show,
-                      lambda i: (tuple(args.plugin or ()), fmt, targets[i], args.max_depth))  # fmt: skip
+                      lambda i: (tuple(args.plugin or ()), fmt, None if targets[i] is None else targets[i] + suffix,
+                                 args.max_depth), after=shown)  # fmt: skip
+    fmt = _show_format(args)
+    _check_output(args.output, "-o", [args.file])
+    _refuse_binary_to_terminal(fmt, args.output)
     registry = _registry(args)
     case = load(args.file, registry=registry)
-    fmt = args.format or ("unicode" if args.output or _can_encode(sys.stdout) else "ascii")
     try:
         text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
     except GraphvizMissing as missing:  # svg/png without Graphviz: a hint, not a traceback
-        print(f"btgen_pytrees: {missing}", file=sys.stderr)
-        return EXIT_INVALID
-    _write(text, args.output)
+        raise UsageError(str(missing)) from None
+    if args.output is None or args.output == "-":
+        _write_stdout(text, fmt)
+    else:
+        commit([(args.output, text)])
     return EXIT_OK
 
 
@@ -132,10 +301,22 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if not args.quiet:
         for outcome in outcomes:
             if outcome.code == EXIT_OK:
-                print(f"{outcome.path}: {outcome.summary}")
+                _print(f"{outcome.path}: {outcome.summary}\n")
         if len(files) > 1:
-            print(batch.summary(outcomes).splitlines()[-1])
+            _print(batch.summary(outcomes).splitlines()[-1] + "\n")
     return max(o.code for o in outcomes)
+
+
+def _plot_check(path: str) -> str:
+    """The plot format of *path* (or of a bare ``svg``/``png``/``html``), with matplotlib importable."""
+    from .run.plot import PlotUnavailable, plot_format, require_matplotlib
+
+    try:
+        fmt = path.lower() if path.lower() in ("svg", "png", "html") else plot_format(path)
+        require_matplotlib()
+    except (ValueError, PlotUnavailable) as problem:
+        raise UsageError(str(problem)) from None
+    return fmt
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -143,33 +324,50 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     files = _single(args)
     if files is not None:
-        if args.json or args.junit or args.plot or args.trace:
-            print("btgen_pytrees: --json/--junit/--plot/--trace take one file; use --out-dir with several", file=sys.stderr)
-            return EXIT_INVALID
-        targets = _targets(args, files, "")
-        return _batch(args, files, batch.job_run, lambda i: (tuple(args.plugin or ()), targets[i]))
+        if args.json or args.trace:
+            raise UsageError("--json/--trace take one file; with several use --out-dir (a report per file)")
+        plot = None
+        if args.plot:
+            if not args.out_dir:
+                raise UsageError("--plot with several files needs --out-dir (one picture per file)")
+            plot = _plot_check(args.plot)
+        if args.junit:
+            _check_output(args.junit, "--junit", files)
+        if args.out_dir:
+            _check_out_dir(args, files, writes_json=True)
+        suffixes = [".report.json", ".junit.xml"] + ([f".{plot}"] if plot else [])
+        targets = _targets(args, files, suffixes)
+
+        def junit(outcomes: list[batch.Outcome]) -> None:
+            if args.junit:
+                from .run.junit import merge_junit
+
+                commit([(args.junit, merge_junit([o.junit for o in outcomes if o.junit], [o for o in outcomes]))])
+
+        return _batch(args, files, batch.job_run,
+                      lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit)), after=junit)  # fmt: skip
+    for option in ("json", "junit", "plot"):
+        _check_output(getattr(args, option), f"--{option}", [args.file])
+    if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
+        from .run.plot import plot_format
+
+        _plot_check(args.plot)
+        plot_format(args.plot)
     registry = _registry(args)
     case = load(args.file, registry=registry)
-    if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
-        from .run.plot import PlotUnavailable, plot_format, require_matplotlib
-
-        try:
-            plot_format(args.plot)
-            require_matplotlib()
-        except (ValueError, PlotUnavailable) as problem:
-            print(f"btgen_pytrees: {problem}", file=sys.stderr)
-            return EXIT_INVALID
-    trace = (lambda line: print(line, file=sys.stderr)) if args.trace else None
+    trace = (lambda line: _err(line)) if args.trace else None
     report = run(case, registry=registry, trace=trace)
+    outputs: list[tuple[str, str | bytes]] = []
     if args.json:
-        _write(report.to_json(), args.json)
+        outputs.append((args.json, report.to_json()))
     if args.junit:
-        _write(report.to_junit(), args.junit)
+        outputs.append((args.junit, report.to_junit()))
     if args.plot:
-        from .run.plot import plot_run
+        from .run.plot import plot_bytes, plot_format
 
-        plot_run(report, case, args.plot)
-    sys.stdout.write(report.table())
+        outputs.append((args.plot, plot_bytes(report, case, plot_format(args.plot))))
+    commit(outputs)  # all together, after everything was made: a failure leaves none
+    _print(report.table())
     return EXIT_OK if report.passed else EXIT_FAIL
 
 
@@ -178,27 +376,45 @@ def cmd_schema(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _non_negative(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value} is negative; the root is depth 0")
+    return value
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (``btgen_pytrees: error: ...``), exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        _err(f"btgen_pytrees: error: {message} (see --help)")
+        raise SystemExit(EXIT_INVALID)
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="python -m btgen_pytrees",
         description="Generate a py_trees behaviour tree from a JSON test case, show it, or run it.",
         epilog="'show' is the default command: 'python -m btgen_pytrees test.json' prints the tree.",
     )
     parser.add_argument("--version", action="version", version=f"btgen_pytrees {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,schema}")
+    sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,schema}", parser_class=_Parser)
     many = argparse.ArgumentParser(add_help=False)
-    many.add_argument("--jobs", "-j", type=int, default=os.cpu_count() or 1, metavar="N",
-                      help="with several files: worker processes (default: the number of CPUs)")  # fmt: skip
-    many.add_argument("--out-dir", metavar="DIR", help="with several files: write each file's output into DIR")
+    many.add_argument("--jobs", "-j", type=int, default=min(os.cpu_count() or 1, MAX_JOBS), metavar="N",
+                      help=f"with several files: worker processes, 1 to {MAX_JOBS} (default: the number of CPUs)")  # fmt: skip
+    many.add_argument("--out-dir", metavar="DIR", help="write each file's output into DIR (made when first written)")
     plugin = argparse.ArgumentParser(add_help=False)
     plugin.add_argument("--plugin", action="append", metavar="MODULE",
                         help="import MODULE and call its register(registry) to add leaves (repeatable)")  # fmt: skip
 
     show = sub.add_parser("show", parents=[plugin, many], help="print the generated tree (default command)")
     show.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
-    show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: unicode if the terminal can show it, else ascii)")
-    show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout")
-    show.add_argument("--max-depth", type=int, metavar="N", help="text and dot/svg/png formats: show nodes down to depth N only (root = 0); deeper subtrees are collapsed")
+    show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: from the -o suffix, else unicode if the terminal can show it, else ascii)")
+    show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout (.svg/.png/.dot/.json/.xml/.txt choose the format)")
+    show.add_argument("--max-depth", type=_non_negative, metavar="N", help="text and dot/svg/png formats: show nodes down to depth N only (root = 0); deeper subtrees are collapsed")
     show.set_defaults(func=cmd_show)
 
     validate = sub.add_parser("validate", parents=[plugin, many], help="check test case files; exit 0 only if all are valid")
@@ -209,9 +425,9 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", parents=[plugin, many], help="run the tree on the virtual-clock simulator and print verdicts")
     run.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
     run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
-    run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML")
+    run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML (several files: one file, a testsuite per case)")
     run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")
-    run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; needs the 'plot' extra")
+    run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")
     run.set_defaults(func=cmd_run)
 
     schema = sub.add_parser("schema", help="print the test case JSON Schema")
@@ -219,28 +435,62 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _on_signal(signum: int, frame: Any) -> None:
+    raise Interrupt(signum)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; return the exit code."""
+    """Run the CLI; return the exit code.
+
+    Ctrl-C and SIGTERM end it with 130/143 after stopping worker processes and
+    removing temporary files. Whatever user code raises (``SystemExit`` and
+    ``KeyboardInterrupt`` included) is reported as an error of the file that
+    ran it, never taken as the CLI's own exit.
+    """
+    if getattr(sys.stdout, "btgen_closed", False):
+        _err("btgen_pytrees: standard output is closed; redirect it (to a file or /dev/null) instead")
+        return EXIT_INVALID
     args_list = list(sys.argv[1:] if argv is None else argv)
     if args_list and args_list[0] not in COMMANDS and not args_list[0].startswith("-"):
         args_list.insert(0, "show")
     parser = _parser()
-    args = parser.parse_args(args_list)
+    try:
+        args = parser.parse_args(args_list)
+    except SystemExit as done:  # --help, --version (0) or a usage error (2, already printed)
+        return done.code if isinstance(done.code, int) else EXIT_INVALID
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_INVALID
     func: Callable[[argparse.Namespace], int] = args.func
+    handlers = {}
+    if argv is None:  # the real CLI process: our handlers; a test calling main() keeps its own
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            handlers[signum] = signal.signal(signum, _on_signal)
     try:
+        if hasattr(args, "jobs"):
+            _check_jobs(args)
         return func(args)
+    except UsageError as problem:
+        _err(f"btgen_pytrees: {problem}")
+        return EXIT_INVALID
     except InvalidTestCase as error:
         return _report_invalid(error)
-    except PluginError as error:
-        print(f"btgen_pytrees: {error}", file=sys.stderr)
+    except (PluginError, FactoryError) as error:
+        _err(f"btgen_pytrees: {error}")
         return EXIT_INVALID
-    except KeyboardInterrupt:
-        return 130
+    except Interrupt as stop:
+        _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}")
+        return 128 + stop.signum
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
-        print(f"btgen_pytrees: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        _err(f"btgen_pytrees: internal error: {type(exc).__name__}: {exc}")
         return EXIT_INTERNAL
+    except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt raised by user code
+        if isinstance(exc, KeyboardInterrupt) and argv is not None:
+            raise  # a test's own Ctrl-C
+        _err(f"btgen_pytrees: error: user code (a plugin or leaf) raised {type(exc).__name__}" + (f": {exc}" if str(exc) else ""))
+        return EXIT_FAIL
+    finally:
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)

@@ -15,20 +15,64 @@ The CLI renders each as ``FILE: /json/pointer: message``.
 from __future__ import annotations
 
 import re
+import signal
 from dataclasses import dataclass
 from typing import Iterable, Union
 
-__all__ = ["Problem", "InvalidTestCase", "pointer"]
+__all__ = ["Problem", "InvalidTestCase", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
 
 PathPart = Union[str, int]
 
+MAX_PROBLEMS = 100
+"""Problems printed per file; the rest are counted in one ``… and N more problems`` line."""
 
-_CONTROL = re.compile(r"[\x00-\x1f\x7f\u2028\u2029]")
+MAX_MESSAGE = 200
+"""A problem's message is shortened (its middle cut out) to about this many characters."""
+
+MAX_LINE = 400
+"""Any printed line (a problem with its file name and pointer, a summary row) is cut to this length."""
+
+UNSAFE = re.compile(
+    "[\x00-\x1f\x7f-\x9f\u061c\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb\ud800-\udfff]"
+)
+"""What a terminal could act on or hide text with: C0, DEL, C1 (ESC sequences, cursor moves), bidi
+overrides and isolates (text shown in another order than it is), zero-width characters, line and
+paragraph separators, and lone surrogates (the undecodable bytes of a non-UTF-8 file name)."""
+
+
+def _escape(match: re.Match[str]) -> str:
+    code = ord(match.group())
+    if 0xDC80 <= code <= 0xDCFF:  # a byte os.fsdecode could not decode (surrogateescape)
+        return f"\\x{code - 0xDC00:02x}"
+    return f"\\x{code:02x}" if code < 256 else f"\\u{code:04x}"
+
+
+def shorten(text: str, limit: int = MAX_MESSAGE) -> str:
+    """*text* cut in the middle to *limit* characters (the end usually says why)."""
+    if len(text) <= limit:
+        return text
+    half = limit // 2
+    return text[:half] + "…" + text[-(limit - half - 1) :]
+
+
+def printable(text: str, *, limit: int | None = None, keep_newlines: bool = False) -> str:
+    """*text* safe to print: every character in :data:`UNSAFE` escaped as ``\\xNN``/``\\uNNNN``.
+
+    A name like ``"t: PASS\\u001b[8m"`` then cannot hide what follows it, and a key
+    with a newline cannot split a one-line message. With *keep_newlines* ``\\n``
+    stays (multi-line text such as a tree); with *limit* each line is shortened.
+
+    >>> printable("ok\\x1b[8m \\u202egnp.exe")
+    'ok\\\\x1b[8m \\\\u202egnp.exe'
+    """
+    if keep_newlines:
+        return "\n".join(printable(line, limit=limit) for line in text.split("\n"))
+    text = UNSAFE.sub(_escape, text)
+    return shorten(text, limit) if limit is not None else text
 
 
 def _printable(text: str) -> str:
-    """Escape control characters, so a key like ``"a\\nb"`` cannot split a one-line message."""
-    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 256 else f"\\u{ord(m.group()):04x}", text)
+    return printable(text, limit=MAX_LINE)
 
 
 def pointer(path: Iterable[PathPart]) -> str:
@@ -57,8 +101,9 @@ class Problem:
         return pointer(self.path)
 
     def render(self, source: str) -> str:
-        """``source: /pointer: message`` on one line (control characters escaped)."""
-        return _printable(f"{source}: {self.pointer}: {self.message}")
+        """``source: /pointer: message`` on one line: control characters escaped, the message cut
+        to :data:`MAX_MESSAGE` characters, the whole line to :data:`MAX_LINE`."""
+        return _printable(f"{source}: {self.pointer}: {shorten(self.message)}")
 
 
 class InvalidTestCase(ValueError):
@@ -73,3 +118,29 @@ class InvalidTestCase(ValueError):
         self.problems: tuple[Problem, ...] = tuple(problems)
         self.source = source
         super().__init__("\n".join(p.render(source) for p in self.problems))
+
+
+class Interrupt(KeyboardInterrupt):
+    """Raised by the CLI's own signal handlers (Ctrl-C, SIGTERM): the process is being stopped.
+
+    Code that contains user code (plugins, factories, leaves) turns whatever it
+    raises - ``SystemExit`` and ``KeyboardInterrupt`` included - into that
+    file's error, except this (see :func:`is_interrupt`).
+    """
+
+    def __init__(self, signum: int = signal.SIGINT):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def is_interrupt(exc: BaseException) -> bool:
+    """Whether *exc* is someone stopping this process, not user code misbehaving.
+
+    True for :class:`Interrupt`, and for a plain ``KeyboardInterrupt`` while
+    Python's own Ctrl-C handler is installed (a host application or a REPL:
+    its Ctrl-C must still stop the run). Under the CLI, whose handlers raise
+    :class:`Interrupt`, a plain ``KeyboardInterrupt`` can only come from user code.
+    """
+    if isinstance(exc, Interrupt):
+        return True
+    return type(exc) is KeyboardInterrupt and signal.getsignal(signal.SIGINT) is signal.default_int_handler

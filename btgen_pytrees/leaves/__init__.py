@@ -16,10 +16,10 @@ from . import plugins as _plugins
 from .builtin import register_builtins
 from .environment import Environment, unique_namespace
 from .plugins import PluginError
-from .registry import Factory, LeafType, Registry
+from .registry import Factory, FactoryError, LeafType, Registry
 
 __all__ = [
-    "Environment", "Factory", "LeafType", "PluginError", "Registry",
+    "Environment", "Factory", "FactoryError", "LeafType", "PluginError", "Registry",
     "builtin_registry", "default_registry", "unique_namespace",
 ]  # fmt: skip
 

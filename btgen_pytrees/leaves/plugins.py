@@ -20,6 +20,7 @@ from functools import lru_cache
 from importlib.metadata import entry_points
 from typing import Callable, Iterable
 
+from ..errors import is_interrupt
 from .registry import Registry
 
 __all__ = ["ENTRY_POINT_GROUP", "PluginError", "installed_plugins", "load_module_plugin"]
@@ -39,7 +40,9 @@ def installed_plugins() -> tuple[tuple[str, Register], ...]:
     for ep in sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: (ep.name, ep.value)):
         try:
             func = ep.load()
-        except Exception as exc:  # noqa: BLE001 - any import failure of a third-party plugin
+        except BaseException as exc:  # noqa: BLE001 - any failure of a third-party plugin, SystemExit too
+            if is_interrupt(exc):
+                raise
             raise PluginError(f"entry point {ep.name!r} ({ep.value}): {type(exc).__name__}: {exc}") from exc
         if not callable(func):
             raise PluginError(f"entry point {ep.name!r} ({ep.value}) is not callable")
@@ -51,7 +54,9 @@ def load_module_plugin(module: str) -> tuple[str, Register]:
     """Import *module* and return its ``register`` function."""
     try:
         mod = importlib.import_module(module)
-    except Exception as exc:  # noqa: BLE001
+    except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt at import are the plugin's error
+        if is_interrupt(exc):
+            raise
         raise PluginError(f"plugin {module!r}: cannot import: {type(exc).__name__}: {exc}") from exc
     func = getattr(mod, "register", None)
     if not callable(func):
@@ -64,6 +69,8 @@ def apply(registry: Registry, plugins: Iterable[tuple[str, Register]]) -> Regist
     for label, func in plugins:
         try:
             func(registry)
-        except Exception as exc:  # noqa: BLE001
+        except BaseException as exc:  # noqa: BLE001 - SystemExit too: the plugin's error, never the CLI's exit
+            if is_interrupt(exc):
+                raise
             raise PluginError(f"{label}: register() failed: {type(exc).__name__}: {exc}") from exc
     return registry

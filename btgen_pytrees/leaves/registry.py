@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Union
 
 import py_trees
 
+from ..errors import is_interrupt
 from ..model import Criterion, Entry
 from ..validation import SchemaValidator
 from .environment import Environment
@@ -31,11 +32,18 @@ from .environment import Environment
 if TYPE_CHECKING:  # pragma: no cover
     from ..systems.base import SystemType
 
-__all__ = ["Factory", "LeafType", "Registry", "KINDS"]
+__all__ = ["Factory", "FactoryError", "LeafType", "Registry", "KINDS"]
 
 KINDS = ("behavior", "constraint", "record", "period", "final")
 Factory = Callable[[Union[Entry, Criterion], Environment], py_trees.behaviour.Behaviour]
 """``factory(entry_or_criterion, environment) -> Behaviour``."""
+
+
+class FactoryError(TypeError):
+    """A leaf factory raised (anything, ``SystemExit`` included) or returned something that is not a Behaviour.
+
+    The CLI reports it as one line (exit 2; ``run``: the verdict ``error``).
+    """
 
 
 @dataclass(frozen=True)
@@ -115,16 +123,22 @@ class Registry:
 
         Raises:
             LookupError: nothing is registered for the item's (kind, action)
-            TypeError: the factory did not return a py_trees Behaviour
+            FactoryError: the factory raised, or did not return a py_trees Behaviour
         """
         is_entry = isinstance(item, Entry)
         kind = item.kind if is_entry else item.type  # type: ignore[union-attr]
         leaf_type = self.get(kind, item.action)
         if leaf_type is None:
             raise LookupError(f"no leaf registered for {kind} action {item.action!r}")
-        node = leaf_type.factory(item, env)
+        try:
+            node = leaf_type.factory(item, env)
+        except BaseException as exc:  # noqa: BLE001 - user code: SystemExit too is this leaf's error
+            if is_interrupt(exc):
+                raise
+            detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+            raise FactoryError(f"{item.id}: the factory for {kind} {item.action!r} raised {detail}") from exc
         if not isinstance(node, py_trees.behaviour.Behaviour):
-            raise TypeError(f"the factory for {kind} {item.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
+            raise FactoryError(f"{item.id}: the factory for {kind} {item.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
         setattr(node, "btgen_entry" if is_entry else "btgen_criterion", item)
         return node
 

@@ -34,6 +34,7 @@ import py_trees
 from py_trees.common import Status
 
 from ..construct import generate
+from ..errors import is_interrupt
 from ..leaves import Registry, default_registry
 from ..model import TestCase
 from ..systems.base import System, SystemFailure
@@ -88,14 +89,22 @@ def run_tree(
     saved = env.clock, env.system
     env.clock, env.system = system, system
     try:
-        root.setup_with_descendants()
+        try:
+            root.setup_with_descendants()
+        except BaseException as exc:  # noqa: BLE001 - a leaf's setup(): the run's error, not the CLI's
+            if is_interrupt(exc):
+                raise
+            collector.end("error", f"setup() raised {_described(exc)}")
+            return collector.report()
         system.start(env)
         for k in range(last + 1):
             system.publish(env)
             try:
                 for node in root.tick():
                     see(node)
-            except Exception as exc:  # a leaf raised (a SystemFailure too): report it, never a traceback
+            except BaseException as exc:  # noqa: BLE001 - a leaf raised (SystemExit, a SystemFailure too): report it
+                if is_interrupt(exc):
+                    raise
                 collector.raised(exc)
                 break
             if root.status in _DONE:
@@ -109,7 +118,13 @@ def run_tree(
     finally:
         try:
             if root.status == Status.RUNNING or collector.ending is not None and collector.ending[0] == "error":
-                root.stop(Status.INVALID)
+                try:
+                    root.stop(Status.INVALID)
+                except BaseException as exc:  # noqa: BLE001 - a leaf's terminate() raised
+                    if is_interrupt(exc):
+                        raise
+                    if collector.ending is None or collector.ending[0] != "error":
+                        collector.end("error", f"terminate() raised {_described(exc)}")
         finally:
             try:
                 system.close()
@@ -125,5 +140,14 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
     """Generate *case*'s tree, run it against its system and return the :class:`Report`."""
     registry = registry if registry is not None else default_registry()
     system = create_system(case, registry)
-    root = generate(case, registry=registry, clock=system)
+    try:
+        root = generate(case, registry=registry, clock=system)
+    except BaseException as exc:  # noqa: BLE001 - a factory raised or returned a non-Behaviour
+        if is_interrupt(exc):
+            raise
+        return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}")
     return run_tree(root, case, system=system, trace=trace)
+
+
+def _described(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__

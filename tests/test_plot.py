@@ -173,3 +173,28 @@ def test_readme_run_picture_is_current(fig1_path: str) -> None:
     if made_by and made_by.group(1).decode() == matplotlib.__version__:
         fresh = plot_bytes(run(case_), case_, "svg")
         assert fresh == committed, "regenerate: python -m btgen_pytrees run examples/fig1.json --plot docs/images/fig1-run.svg"
+
+
+def test_signal_panel_draws_every_signal_change_from_the_trace() -> None:
+    """Defect 3: the panel used to sample a signal only when an oracle read it. `gap` is read
+    only by `until`; `speed` goes on ramping after the only criterion reading it (a final at
+    0.5 s) has decided, so its curve must follow the ramp to 30 at 3 s, tick by tick."""
+    data = case(
+        entry("B1", action="ramp", signal="gap", to=10, duration=1),
+        entry("C1", action="until", expect="gap >= 5", timeout=2),
+        entry("B2", action="ramp", signal="speed", to=30, duration=3),
+        criteria=[crit("F1", "final", "speed < 10", at=0.5), crit("P1", "period", "true", **{"from": 0, "to": 3})],
+        signals={"gap": 0, "speed": 0},
+    )
+    case_ = btgen_pytrees.load(data)
+    report = run(case_)
+    assert report.verdict == "pass"
+    figure = plot_figure(report, case_)
+    signals = figure.axes[1]
+    curves = {line.get_label(): line for line in signals.get_lines() if not line.get_label().startswith("_")}
+    assert set(curves) == {"gap", "speed"}
+    speed = curves["speed"]
+    expected = report.trace.series("speed")
+    assert list(speed.get_xdata())[:-1] == [t for t, _ in expected] and speed.get_xdata()[-1] == report.duration
+    assert list(speed.get_ydata())[:-1] == [float(v) for _, v in expected]
+    assert expected[-1] == (3.0, 30) and len(expected) == 31  # every tick of the ramp

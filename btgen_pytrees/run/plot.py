@@ -9,8 +9,9 @@ run, a ``period`` its window, a ``final`` is a diamond at its instant. Green
 passed, grey undecided, red failed; every failure (an entry or a criterion)
 also gets a red vertical line across the whole figure, labelled with its id.
 
-Bottom: the signals the oracles read, over time, as steps from each reading
-that changed; the values a failing criterion read are red dots.
+Bottom: every numeric signal of the run, as steps from each change the run's
+trace recorded (:mod:`.trace`: every signal on every tick it changed, whoever
+wrote or read it); the values a failing criterion read are red dots.
 
 matplotlib is an optional extra (``pip install 'btgen_pytrees[plot]'``); this
 module imports it only when drawing, so the core install never needs it.
@@ -270,14 +271,27 @@ def _draw_criterion(ax: Axes, i: int, row: Row, span: float) -> None:
 
 
 def _signal_series(report: Report) -> dict[str, list[tuple[float, float]]]:
-    """Every numeric signal any oracle read: ``{name: [(t, value), ...]}``, sorted by time, one value per time."""
-    series: dict[str, dict[float, float]] = {}
+    """Every numeric signal of the run: ``{name: [(t, value), ...]}``, sorted by name, one point per change.
+
+    Drawn from the run's trace; a report without one (made by hand) falls back
+    to what its oracles read. Values that are not numbers (strings, lists) are
+    left out; booleans are 0/1.
+    """
+    trace = report.trace
+    if trace is not None:
+        series = {}
+        for name in sorted(trace.signals):
+            points = [(t, float(v)) for t, v in trace.series(name) if isinstance(v, (bool, int, float))]
+            if points:
+                series[name] = points
+        return series
+    samples: dict[str, dict[float, float]] = {}
     for oracle in report.oracles:
         for t, values in oracle.samples:
             for name, value in values.items():
                 if isinstance(value, (bool, int, float)):
-                    series.setdefault(name, {})[t] = float(value)
-    return {name: sorted(points.items()) for name, points in sorted(series.items())}
+                    samples.setdefault(name, {})[t] = float(value)
+    return {name: sorted(points.items()) for name, points in sorted(samples.items())}
 
 
 def _draw_signals(ax: Axes, series: dict[str, list[tuple[float, float]]], report: Report, span: float) -> None:
@@ -291,7 +305,7 @@ def _draw_signals(ax: Axes, series: dict[str, list[tuple[float, float]]], report
             for name, value in oracle.values.items():
                 if name in series and isinstance(value, (bool, int, float)):
                     ax.plot([oracle.at], [float(value)], marker="o", markersize=7, color=COLOURS["fail"], zorder=4)
-    ax.set_ylabel("signals read by the oracles", fontsize=8)
+    ax.set_ylabel("signals", fontsize=8)
     ax.set_xlabel("run time, s")
     ax.grid(linewidth=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)

@@ -7,8 +7,11 @@ from __future__ import annotations
 
 import json
 import xml.etree.ElementTree as ET
-from dataclasses import asdict, dataclass, field
-from typing import Any
+from dataclasses import asdict, dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .trace import RunTrace
 
 __all__ = ["EntryResult", "OracleResult", "Report"]
 
@@ -56,6 +59,8 @@ class Report:
         message: why the run failed, timed out or erred ("" on pass)
         execute: one :class:`EntryResult` per entry, in file order
         oracles: one :class:`OracleResult` per criterion, in file order
+        trace: every node status and signal change of the run
+            (:class:`~.trace.RunTrace`; not part of the JSON report)
     """
 
     test: str
@@ -65,13 +70,15 @@ class Report:
     message: str = ""
     execute: list[EntryResult] = field(default_factory=list)
     oracles: list[OracleResult] = field(default_factory=list)
+    trace: RunTrace | None = field(default=None, repr=False, compare=False)
 
     @property
     def passed(self) -> bool:
         return self.verdict == "pass"
 
     def to_dict(self) -> dict[str, Any]:
-        data = asdict(self)
+        data = asdict(replace(self, trace=None))
+        del data["trace"]
         for oracle in data["oracles"]:
             del oracle["samples"]
         return data

@@ -40,6 +40,7 @@ from ..model import TestCase
 from ..systems.base import System, SystemFailure
 from .collector import Collector, Trace
 from .report import Report
+from .trace import TraceRecorder
 
 __all__ = ["run", "run_tree", "create_system", "Trace"]
 
@@ -85,6 +86,7 @@ def run_tree(
     env = root.btgen_env  # type: ignore[attr-defined]
     collector = Collector(root, trace=trace)
     see = collector.run
+    tracer = TraceRecorder(root)  # every status and signal change: report.trace, for --plot/--replay/--btlog
     last = int(case.timeout / case.tick + 1e-9)
     saved = env.clock, env.system
     env.clock, env.system = system, system
@@ -99,14 +101,18 @@ def run_tree(
         system.start(env)
         for k in range(last + 1):
             system.publish(env)
+            tracer.initialise()
             try:
                 for node in root.tick():
                     see(node)
+                    tracer.run(node)
             except BaseException as exc:  # noqa: BLE001 - a leaf raised (SystemExit, a SystemFailure too): report it
                 if is_interrupt(exc):
                     raise
+                tracer.finalise()
                 collector.raised(exc)
                 break
+            tracer.finalise()
             if root.status in _DONE:
                 break
             if k < last:
@@ -133,7 +139,9 @@ def run_tree(
                     collector.end("error", f"closing the system failed: {exc}")
             finally:
                 env.clock, env.system = saved
-    return collector.report()
+    report = collector.report()
+    report.trace = tracer.trace
+    return report
 
 
 def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None) -> Report:

@@ -1,0 +1,343 @@
+"""A compact record of one run: every node's status changes and every signal's changes, per tick.
+
+The report says *what* was decided; the trace says *how the run got there*, so
+the run picture (``--plot``), the replay page (``--replay``) and the
+BehaviorTree.CPP log (``--btlog``) can all be drawn from one source instead of
+from whatever an oracle happened to read.
+
+What is recorded, tick by tick (tick *k* is the *k*-th tick of the run, at run
+time ``times[k]``):
+
+* **node statuses** - each time a node's status changes: when a ticked node
+  returns a new status, and when a node is stopped without being ticked (a
+  Parallel that finishes halts its running children; a stopped composite resets
+  its whole subtree). Nodes are numbered in pre-order (root = 0), the order of
+  :func:`~btgen_pytrees.render.info.walk`, so index *i* is graph node ``n<i>``
+  of the uncollapsed Graphviz view. Within a tick the changes keep their order;
+  a leaf that starts and is halted on the same tick shows both. Every node is
+  ``invalid`` before tick 0.
+* **signals** - every key under the tree's ``<ns>/signals/`` on the blackboard,
+  whoever wrote it (an action, ``until`` only reads, a system's published
+  signals), sampled *after* each tick, recorded only when its value changed
+  (``1`` and ``1.0`` and ``True`` count as different values).
+
+What is not recorded: the halt the runner sends after the last tick of a run
+that timed out or erred (the trace shows the tree as it was on its last tick).
+
+**Memory.** Changes only: a status change costs 9 bytes (three packed arrays),
+a signal change one list slot and its value. A run is capped at ``limit``
+changes (default 2,000,000, a few tens of MB at most); past it recording stops,
+``truncated`` is the first tick not fully recorded, and every view says so.
+
+>>> from btgen_pytrees import load
+>>> from btgen_pytrees.run import run
+>>> trace = run(load("examples/fig1.json")).trace
+>>> trace.series("speed")[:3]
+[(0.0, 0.0), (0.1, 1.0), (0.2, 2.0)]
+>>> trace.status_at(trace.node_index("B4"), 14), trace.status_at(trace.node_index("B4"), 15)
+('invalid', 'success')
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+from array import array
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterator
+
+import py_trees
+from py_trees.blackboard import Blackboard
+from py_trees.common import Status
+
+from ..render.info import role, walk
+
+__all__ = ["RunTrace", "TraceNode", "TraceRecorder", "STATUSES", "DEFAULT_LIMIT"]
+
+STATUSES = ("invalid", "running", "success", "failure")
+"""Status names by code; the codes are BehaviorTree.CPP's (IDLE, RUNNING, SUCCESS, FAILURE)."""
+
+_CODE = {Status.INVALID: 0, Status.RUNNING: 1, Status.SUCCESS: 2, Status.FAILURE: 3}
+
+DEFAULT_LIMIT = 2_000_000
+"""Changes (status and signal) a trace keeps before it stops recording."""
+
+_SCALARS = (bool, int, float, str, type(None))
+
+
+@dataclass(frozen=True)
+class TraceNode:
+    """One node of the traced tree.
+
+    Attributes:
+        name: the behaviour's name
+        role: ``behavior``, ``constraint``, ``oracle``, ``trigger``, ``wiring`` or ``composite``
+        id: the entry or criterion id ("" for other nodes)
+        parent: index of the parent (-1 for the root)
+        depth: root = 0
+        end: one past the index of the last node of its subtree (pre-order)
+    """
+
+    name: str
+    role: str
+    id: str
+    parent: int
+    depth: int
+    end: int
+
+
+@dataclass
+class RunTrace:
+    """What happened on every tick of one run (see the module notes).
+
+    Attributes:
+        nodes: the tree, in pre-order
+        times: run time of each tick
+        ticks, nodes_changed, statuses: the status changes, as three parallel
+            arrays (tick, node index, status code; see :data:`STATUSES`)
+        signals: per signal, the ticks at which its value changed and the values
+        truncated: the first tick from which changes were dropped (``None``: complete)
+        limit: the cap on changes
+    """
+
+    nodes: list[TraceNode]
+    times: list[float] = field(default_factory=list)
+    ticks: array = field(default_factory=lambda: array("L"))
+    nodes_changed: array = field(default_factory=lambda: array("L"))
+    statuses: array = field(default_factory=lambda: array("B"))
+    signals: dict[str, tuple[array, list[Any]]] = field(default_factory=dict)
+    truncated: int | None = None
+    limit: int = DEFAULT_LIMIT
+
+    # -- reading ------------------------------------------------------------------------------------
+
+    def transitions(self) -> Iterator[tuple[int, int, str]]:
+        """Every status change, in order: ``(tick, node index, status name)``."""
+        for k, i, s in zip(self.ticks, self.nodes_changed, self.statuses):
+            yield k, i, STATUSES[s]
+
+    def node_index(self, ident: str) -> int:
+        """The index of the node of entry or criterion *ident* (:class:`KeyError` if none)."""
+        for i, node in enumerate(self.nodes):
+            if node.id == ident:
+                return i
+        raise KeyError(ident)
+
+    def statuses_at(self, tick: int) -> list[str]:
+        """Every node's status at the end of *tick*."""
+        codes = bytearray(len(self.nodes))
+        for k, i, s in zip(self.ticks, self.nodes_changed, self.statuses):
+            if k > tick:
+                break
+            codes[i] = s
+        return [STATUSES[c] for c in codes]
+
+    def status_at(self, node: int, tick: int) -> str:
+        """Node *node*'s status at the end of *tick*."""
+        return self.statuses_at(tick)[node]
+
+    def value_at(self, signal: str, tick: int) -> Any:
+        """The value of *signal* at the end of *tick* (``None`` before it had one)."""
+        ticks, values = self.signals[signal]
+        value = None
+        for k, v in zip(ticks, values):
+            if k > tick:
+                break
+            value = v
+        return value
+
+    def series(self, signal: str) -> list[tuple[float, Any]]:
+        """``(time, value)`` each time *signal* changed."""
+        ticks, values = self.signals[signal]
+        return [(self.times[k], v) for k, v in zip(ticks, values)]
+
+    def changes(self) -> int:
+        return len(self.statuses) + sum(len(t) for t, _ in self.signals.values())
+
+    def to_data(self) -> dict[str, Any]:
+        """The trace as compact JSON-ready data (the replay page's input).
+
+        ``transitions`` is one flat list ``[tick, node, code, tick, node, code, ...]``;
+        ``signals`` maps each name (sorted) to ``[[tick, value], ...]``.
+        """
+        flat: list[int] = []
+        for k, i, s in zip(self.ticks, self.nodes_changed, self.statuses):
+            flat += (k, i, s)
+        return {
+            "times": self.times,
+            "nodes": [[n.name, n.role, n.id, n.parent, n.depth] for n in self.nodes],
+            "statuses": list(STATUSES),
+            "transitions": flat,
+            "signals": {name: [[k, v] for k, v in zip(*self.signals[name])] for name in sorted(self.signals)},
+            "truncated": self.truncated,
+        }
+
+
+class TraceRecorder(py_trees.visitors.VisitorBase):
+    """A py_trees visitor that records a :class:`RunTrace` while a tree is ticked.
+
+    Drive it as :class:`py_trees.trees.BehaviourTree` drives its visitors:
+    :meth:`initialise` before each tick, :meth:`run` for every node the tick
+    yields, :meth:`finalise` after the tick (also after a tick that raised).
+
+    Args:
+        root: the tree (generated trees carry their environment, whose
+            namespace says where the signals are)
+        now: run time of the current tick (default: the environment's ``now``)
+        limit: the cap on recorded changes
+    """
+
+    def __init__(self, root: py_trees.behaviour.Behaviour, *, now: Callable[[], float] | None = None,
+                 limit: int = DEFAULT_LIMIT):  # fmt: skip
+        super().__init__(full=False)
+        self._behaviours: list[py_trees.behaviour.Behaviour] = []
+        nodes: list[TraceNode] = []
+        index: dict[int, int] = {}
+        stack: list[int] = []  # open subtrees, to fill in each node's end
+        ends: list[int] = []
+        for depth, node in walk(root):
+            i = len(self._behaviours)
+            while len(stack) > depth:
+                ends[stack.pop()] = i
+            stack.append(i)
+            ends.append(i + 1)
+            index[id(node)] = i
+            self._behaviours.append(node)
+            parent = index.get(id(node.parent), -1) if node is not root else -1
+            entry = getattr(node, "btgen_entry", None) or getattr(node, "btgen_criterion", None)
+            nodes.append(TraceNode(node.name, role(node), entry.id if entry is not None else "", parent, depth, 0))
+        for i in stack:
+            ends[i] = len(nodes)
+        self.trace = RunTrace([TraceNode(n.name, n.role, n.id, n.parent, n.depth, e) for n, e in zip(nodes, ends)],
+                              limit=limit)  # fmt: skip
+        self._index = index
+        self._ends = ends
+        self._last = bytearray(len(nodes))
+        self._running: dict[int, py_trees.behaviour.Behaviour] = {}
+        self._walks: list[int] = []
+        env = getattr(root, "btgen_env", None)
+        self._now = now if now is not None else (env.now if env is not None else (lambda: 0.0))
+        self._prefix = env.namespace + "/signals/" if env is not None else None
+        self._keys: dict[str, str] = {}  # blackboard key -> signal name
+        self._storage_size = -1
+        self._values: dict[str, Any] = {}
+        self._tick = -1
+        self._count = 0
+
+    # -- the visitor protocol -----------------------------------------------------------------------
+
+    def initialise(self) -> None:
+        """A tick begins."""
+        self._tick += 1
+        self._walks.clear()
+
+    def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+        """*behaviour* was ticked: note its status as it returned it."""
+        i = self._index.get(id(behaviour))
+        if i is None:  # a node added after the recorder was made: not traced
+            return
+        last = self._last[i]
+        if last >= 2 and self._ends[i] > i + 1:  # a finished composite runs again: its children were reset
+            self._walks.append(i)
+        code = _CODE[behaviour.status]
+        if code != last:
+            self._note(i, code)
+
+    def finalise(self) -> None:
+        """A tick ended: catch the nodes halted without a tick, then sample the signals.
+
+        Only a running node can be halted (a Parallel that finishes halts its
+        running children; a halted composite resets its whole subtree), so the
+        check costs one look per running node, not per node of the tree.
+        """
+        self.trace.times.append(self._now())
+        ends = self._ends
+        for i, node in list(self._running.items()):
+            code = _CODE[node.status]
+            if code != 1:
+                self._note(i, code)
+                if code == 0 and ends[i] > i + 1:
+                    self._walks.append(i)
+        reach = -1
+        behaviours = self._behaviours
+        for i in sorted(self._walks):
+            for j in range(max(i, reach), ends[i]):
+                code = _CODE[behaviours[j].status]
+                if code != self._last[j]:
+                    self._note(j, code)
+            reach = max(reach, ends[i])
+        self._sample_signals()
+
+    # -- recording ----------------------------------------------------------------------------------
+
+    def _room(self) -> bool:
+        trace = self.trace
+        if trace.truncated is not None:
+            return False
+        if self._count >= trace.limit:
+            trace.truncated = self._tick
+            return False
+        self._count += 1
+        return True
+
+    def _note(self, i: int, code: int) -> None:
+        self._last[i] = code
+        if code == 1:
+            self._running[i] = self._behaviours[i]
+        else:
+            self._running.pop(i, None)
+        if self._room():
+            self.trace.ticks.append(self._tick)
+            self.trace.nodes_changed.append(i)
+            self.trace.statuses.append(code)
+
+    def _discover(self, storage: dict[str, Any]) -> None:
+        """Find the signal keys: all of them on the first look or when keys went away, else
+        only the newest (a dict iterates in insertion order, so new keys are at its end)."""
+        prefix = self._prefix
+        assert prefix is not None
+        size = len(storage)
+        if self._storage_size < 0 or size < self._storage_size:
+            fresh = [k for k in storage if k.startswith(prefix)]
+        else:
+            fresh = [k for k in itertools.islice(reversed(storage), size - self._storage_size) if k.startswith(prefix)]
+        for key in sorted(fresh):
+            self._keys.setdefault(key, key[len(prefix):])
+        self._storage_size = size
+
+    def _sample_signals(self) -> None:
+        if self._prefix is None:
+            return
+        storage = Blackboard.storage
+        if len(storage) != self._storage_size:
+            self._discover(storage)
+        missing = object()
+        for key, name in self._keys.items():
+            value = storage.get(key, missing)
+            if value is missing:
+                continue
+            last = self._values.get(name, missing)
+            if last is not missing and _same(value, last):
+                continue
+            if not self._room():
+                return
+            if not isinstance(value, _SCALARS):
+                value = copy.deepcopy(value)  # a list changed in place later must not change the record
+            self._values[name] = value
+            ticks, values = self.trace.signals.setdefault(name, (array("L"), []))
+            ticks.append(self._tick)
+            values.append(value)
+
+
+def _same(a: Any, b: Any) -> bool:
+    if a is b:
+        return True
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, float) and math.isnan(a) and math.isnan(b):
+        return True
+    try:
+        return bool(a == b)
+    except Exception:  # noqa: BLE001 - an odd value that cannot compare counts as changed
+        return False

@@ -1,0 +1,166 @@
+"""The run trace records every node status change and every signal change, tick by tick.
+
+Checked against brute force: the same tree ticked the same way while a second
+observer copies *every* node's status and *every* blackboard signal after each
+tick; replaying the trace must give exactly those snapshots, over random
+timelines with ramps, sets, ``until`` waits and failing criteria (so nodes are
+halted mid-run). Memory: only changes are kept, and the cap holds.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import py_trees
+from helpers import case, crit, entry
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from py_trees.blackboard import Blackboard
+
+import btgen_pytrees
+from btgen_pytrees.clock import VirtualClock
+from btgen_pytrees.leaves import default_registry
+from btgen_pytrees.render.info import walk
+from btgen_pytrees.run import run
+from btgen_pytrees.run.trace import STATUSES, TraceRecorder
+
+CODES = {py_trees.common.Status.INVALID: "invalid", py_trees.common.Status.RUNNING: "running",
+         py_trees.common.Status.SUCCESS: "success", py_trees.common.Status.FAILURE: "failure"}  # fmt: skip
+
+
+@st.composite
+def scenarios(draw: Any) -> dict[str, Any]:
+    n = draw(st.integers(1, 8))
+    entries = []
+    for i in range(n):
+        after = [f"E{p}" for p in draw(st.lists(st.integers(0, i - 1), max_size=2, unique=True))] if i else []
+        action = draw(st.sampled_from(["hold", "set", "ramp", "until", "wait"]))
+        signal = draw(st.sampled_from(["a", "b"]))
+        params: dict[str, Any] = {}
+        if action == "set":
+            params = {"signal": signal, "value": draw(st.integers(-3, 3)), "duration": draw(st.sampled_from([0, 0.2]))}
+        elif action == "ramp":
+            params = {"signal": signal, "to": draw(st.integers(-5, 5)), "duration": draw(st.sampled_from([0.1, 0.5, 1]))}
+        elif action == "until":
+            params = {"expect": f"{signal} > {draw(st.integers(-2, 2))} or c > 0", "timeout": draw(st.sampled_from([0.3, 2]))}
+        else:
+            params = {"duration": draw(st.sampled_from([0, 0.3, 1]))}
+        entries.append(entry(f"E{i}", after, action=action, **params))
+    criteria = [crit("R1", "record", f"a <= {draw(st.integers(-1, 4))}"),
+                crit("F1", "final", f"b != {draw(st.integers(-1, 1))}")]  # fmt: skip
+    if draw(st.booleans()):
+        criteria.append(crit("P1", "period", "a > -4", **{"from": 0.2, "to": 1}))
+    return case(*entries, criteria=criteria, signals={"a": 0, "b": 0, "c": 0}, tick=0.1, timeout=3)
+
+
+def ticked_with_snapshots(data: dict[str, Any]) -> tuple[Any, list[list[str]], list[dict[str, Any]]]:
+    """Tick like the runner, with the recorder attached; snapshot every node and signal after each tick."""
+    loaded = btgen_pytrees.load(data)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, registry=default_registry(), clock=clock)
+    prefix = root.btgen_env.namespace + "/signals/"
+    nodes = [node for _, node in walk(root)]
+    recorder = TraceRecorder(root)
+    statuses, signals = [], []
+    root.setup_with_descendants()
+    for k in range(int(loaded.timeout / loaded.tick) + 1):
+        clock.set(round(k * loaded.tick, 9))
+        recorder.initialise()
+        for node in root.tick():
+            recorder.run(node)
+        recorder.finalise()
+        statuses.append([CODES[n.status] for n in nodes])
+        signals.append({key[len(prefix):]: v for key, v in Blackboard.storage.items() if key.startswith(prefix)})
+        if root.status != py_trees.common.Status.RUNNING:
+            break
+    return recorder.trace, statuses, signals
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenarios())
+def test_replaying_the_trace_gives_every_snapshot(data: dict[str, Any]) -> None:
+    trace, statuses, signals = ticked_with_snapshots(data)
+    assert len(trace.times) == len(statuses)
+    for k, expected in enumerate(statuses):
+        assert trace.statuses_at(k) == expected, k
+    for k, expected in enumerate(signals):
+        assert {name: trace.value_at(name, k) for name in trace.signals} == expected, k
+    # changes only: no transition repeats a node's previous status, no sample repeats a value
+    last: dict[int, str] = {}
+    for _, i, status in trace.transitions():
+        assert last.get(i, "invalid") != status
+        last[i] = status
+    for ticks, values in trace.signals.values():
+        assert list(ticks) == sorted(set(ticks))
+        assert all((type(a), a) != (type(b), b) for a, b in zip(values, values[1:]))
+
+
+def test_signals_only_until_reads_and_after_a_failure_are_recorded() -> None:
+    """`gap` is written by nobody the oracles read and read only by `until`; `speed` goes on
+    changing after R1 has failed (the run ends at R1's failure, but B2 wrote until then)."""
+    data = case(
+        entry("B1", action="ramp", signal="gap", to=10, duration=1),
+        entry("C1", action="until", expect="gap >= 5", timeout=2),
+        entry("B2", action="ramp", signal="speed", to=30, duration=3),
+        criteria=[crit("R1", "record", "speed <= 100"), crit("F1", "final", "speed >= 30")],
+        signals={"gap": 0, "speed": 0},
+    )
+    report = btgen_pytrees.run.run(btgen_pytrees.load(data))
+    trace = report.trace
+    assert report.verdict == "pass"
+    assert trace.series("gap")[-1] == (1.0, 10) and len(trace.series("gap")) == 11
+    assert trace.series("speed")[-1] == (3.0, 30)
+    c1 = trace.node_index("C1")
+    assert [(trace.times[k], s) for k, i, s in trace.transitions() if i == c1] == [(0.0, "running"), (0.5, "success")]
+
+
+def test_trace_is_not_in_the_json_report(fig1_path: str) -> None:
+    report = run(btgen_pytrees.load(fig1_path))
+    assert report.trace is not None and "trace" not in report.to_dict()
+    json.loads(report.to_json())
+
+
+def test_node_numbering_is_pre_order_with_subtree_ends(fig1_path: str) -> None:
+    root = btgen_pytrees.generate(btgen_pytrees.load(fig1_path))
+    trace = TraceRecorder(root).trace
+    walked = [node for _, node in walk(root)]
+    assert [n.name for n in trace.nodes] == [b.name for b in walked]
+    for i, node in enumerate(trace.nodes):
+        inside = [j for j in range(len(walked)) if any(a is walked[i] for a in _ancestors(walked[j]))]
+        assert list(range(i + 1, node.end)) == inside
+        assert node.parent == (-1 if i == 0 else next(j for j, b in enumerate(walked) if b is walked[i].parent))
+
+
+def _ancestors(node: Any) -> list[Any]:
+    out = []
+    while node.parent is not None:
+        node = node.parent
+        out.append(node)
+    return out
+
+
+def test_the_cap_bounds_memory_and_says_where_it_cut() -> None:
+    data = case(*[entry(f"E{i}", action="ramp", signal=f"s{i}", to=100, duration=5) for i in range(20)], timeout=6)
+    loaded = btgen_pytrees.load(data)
+    full = run(loaded).trace
+    assert full.truncated is None and full.changes() > 1000
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    recorder = TraceRecorder(root, limit=300)
+    root.setup_with_descendants()
+    for k in range(40):
+        clock.set(k * 0.1)
+        recorder.initialise()
+        for node in root.tick():
+            recorder.run(node)
+        recorder.finalise()
+    trace = recorder.trace
+    assert trace.changes() == 300 and trace.truncated is not None
+    assert len(trace.times) == 40  # the clock of every tick is still known
+    # what was kept is exactly the start of the full record
+    assert list(trace.statuses) == list(full.statuses[: len(trace.statuses)])
+
+
+def test_statuses_are_btcpp_codes() -> None:
+    assert STATUSES == ("invalid", "running", "success", "failure")  # IDLE, RUNNING, SUCCESS, FAILURE

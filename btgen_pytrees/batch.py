@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Callable, Iterable, Sequence, TextIO
 
-from .errors import MAX_LINE, Interrupt, is_interrupt, printable, shorten
+from .errors import MAX_LINE, Interrupt, is_interrupt, printable, shorten, xml_safe
 
 __all__ = ["Outcome", "Interrupted", "expand", "output_names", "process", "summary", "job_validate", "job_show",
            "job_run", "EXIT_ERROR", "NOT_RUN"]  # fmt: skip
@@ -404,6 +404,40 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
     if progress is not None:
         progress.write("\n")
     return [r for r in results if r is not None]
+
+
+def merge_junit(outcomes: Sequence[Outcome]) -> str:
+    """One JUnit XML document for a whole batch: one ``testsuite`` per input file, in input order.
+
+    A file that ran contributes the suite of its own JUnit report; a file that
+    did not (invalid, or its user code failed) contributes a suite with one
+    ``testcase`` whose ``error`` says why, so CI servers count it. The
+    ``testsuites`` element carries the totals.
+    """
+    import xml.etree.ElementTree as ET
+
+    root = ET.Element("testsuites")
+    totals = {"tests": 0, "failures": 0, "errors": 0}
+    for outcome in outcomes:
+        suites = ET.fromstring(outcome.junit).iter("testsuite") if outcome.junit else ()
+        added = False
+        for suite in suites:
+            suite.set("file", xml_safe(outcome.path))
+            root.append(suite)
+            added = True
+        if not added:
+            suite = ET.SubElement(root, "testsuite", name=xml_safe(outcome.path), file=xml_safe(outcome.path),
+                                  tests="1", failures="0", errors="1", time="0")  # fmt: skip
+            case = ET.SubElement(suite, "testcase", classname="btgen", name="load and run", time="0")
+            detail = xml_safe("\n".join([outcome.summary, *outcome.problems]))
+            ET.SubElement(case, "error", message=xml_safe(f"{outcome.word}: {shorten(outcome.summary)}")).text = detail
+    for suite in root.iter("testsuite"):
+        for key in totals:
+            totals[key] += int(suite.get(key, "0"))
+    for key, value in totals.items():
+        root.set(key, str(value))
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
 
 
 def summary(outcomes: Sequence[Outcome]) -> str:

@@ -340,9 +340,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         def junit(outcomes: list[batch.Outcome]) -> None:
             if args.junit:
-                from .run.junit import merge_junit
-
-                commit([(args.junit, merge_junit([o.junit for o in outcomes if o.junit], [o for o in outcomes]))])
+                commit([(args.junit, batch.merge_junit(outcomes))])
 
         return _batch(args, files, batch.job_run,
                       lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit)), after=junit)  # fmt: skip

@@ -19,7 +19,7 @@ import signal
 from dataclasses import dataclass
 from typing import Iterable, Union
 
-__all__ = ["Problem", "InvalidTestCase", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
+__all__ = ["Problem", "InvalidTestCase", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
 
 PathPart = Union[str, int]
 
@@ -69,6 +69,19 @@ def printable(text: str, *, limit: int | None = None, keep_newlines: bool = Fals
         return "\n".join(printable(line, limit=limit) for line in text.split("\n"))
     text = UNSAFE.sub(_escape, text)
     return shorten(text, limit) if limit is not None else text
+
+
+XML_FORBIDDEN = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff\ud800-\udfff]")
+"""Characters XML 1.0 cannot hold at all, not even as character references."""
+
+
+def xml_safe(text: str) -> str:
+    """*text* with the characters XML 1.0 forbids escaped as ``\\xNN`` text, so the document stays well-formed.
+
+    >>> xml_safe("a\\x1bb\\x00")
+    'a\\\\x1bb\\\\x00'
+    """
+    return XML_FORBIDDEN.sub(_escape, text)
 
 
 def _printable(text: str) -> str:

@@ -120,19 +120,32 @@ def _reject_constant(name: str) -> Any:
 def load_json(path: str | os.PathLike[str]) -> Any:
     """Read a JSON file with the limits of a test case; problems raise :class:`InvalidTestCase`."""
     source = os.fspath(path)
-    try:
-        info = os.stat(source)
-        if stat.S_ISFIFO(info.st_mode) or stat.S_ISSOCK(info.st_mode):  # opening would wait for a writer
-            raise InvalidTestCase([Problem((), "not a regular file (a pipe or socket)", "json")], source)
-        size = info.st_size
-        if size > MAX_FILE_BYTES:
-            raise InvalidTestCase([Problem((), f"file is {size} bytes; the limit is {MAX_FILE_BYTES}", "limit")], source)
-        with open(source, "rb") as fh:
-            raw = fh.read((size or MAX_FILE_BYTES) + 1)  # size 0: a device such as /dev/zero
-            if size and len(raw) > size:  # it grew since stat(): read on, up to the limit
-                raw += fh.read(MAX_FILE_BYTES + 1 - len(raw))
-    except OSError as exc:
-        raise InvalidTestCase([Problem((), f"cannot read file: {exc.strerror or exc}", "json")], source) from None
+    if source == "-":  # standard input, read up to the limit
+        import sys
+
+        raw = sys.stdin.buffer.read(MAX_FILE_BYTES + 1)
+        source = "<stdin>"
+    else:
+        try:
+            info = os.stat(source)
+            if not stat.S_ISREG(info.st_mode):
+                # a FIFO or socket would wait for a writer, a terminal (/dev/ptmx, /dev/tty) for a
+                # person, a device (/dev/zero, /dev/urandom) never ends: only regular files are read
+                kind = "a directory" if stat.S_ISDIR(info.st_mode) else "a pipe or socket" if (
+                    stat.S_ISFIFO(info.st_mode) or stat.S_ISSOCK(info.st_mode)) else "a device"  # fmt: skip
+                raise InvalidTestCase([Problem((), f"not a regular file ({kind})", "json")], source)
+            size = info.st_size
+            if size > MAX_FILE_BYTES:
+                raise InvalidTestCase([Problem((), f"file is {size} bytes; the limit is {MAX_FILE_BYTES}", "limit")], source)
+            with open(source, "rb") as fh:
+                raw = fh.read(size + 1)
+                if len(raw) > size:  # it grew since stat(): read on, up to the limit
+                    raw += fh.read(MAX_FILE_BYTES + 1 - len(raw))
+        except OSError as exc:
+            why = exc.strerror or str(exc)
+            if os.path.islink(source) and not os.path.exists(source):
+                why = f"dangling symbolic link to {os.readlink(source)}"
+            raise InvalidTestCase([Problem((), f"cannot read file: {why}", "json")], source) from None
     if len(raw) > MAX_FILE_BYTES:  # the file grew while we looked
         raise InvalidTestCase([Problem((), f"file is larger than {MAX_FILE_BYTES} bytes", "limit")], source)
     return parse_json(raw, source)

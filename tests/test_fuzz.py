@@ -656,13 +656,13 @@ def test_limit_boundary(tmp_path: pathlib.Path) -> None:
 
 
 @pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="needs /dev/zero")
-def test_endless_file_reads_at_most_the_limit() -> None:
-    """A file whose size stat() cannot tell (st_size 0) is read up to the limit only."""
+def test_endless_file_is_refused_unread() -> None:
+    """A device whose size stat() cannot tell is not read at all (issue 13: only regular files are inputs)."""
     start = time.perf_counter()
     with pytest.raises(InvalidTestCase) as info:
         btgen_pytrees.load("/dev/zero")
     assert time.perf_counter() - start < 5
-    assert info.value.problems[0].cause == "limit" and "larger than" in info.value.problems[0].message
+    assert info.value.problems[0].message == "not a regular file (a device)"
 
 
 def test_10_mb_files(tmp_path: pathlib.Path) -> None:

@@ -32,11 +32,35 @@ from .environment import Environment
 if TYPE_CHECKING:  # pragma: no cover
     from ..systems.base import SystemType
 
-__all__ = ["Factory", "FactoryError", "LeafType", "Registry", "KINDS"]
+__all__ = ["Factory", "FactoryError", "LeafError", "LeafType", "Registry", "KINDS"]
 
 KINDS = ("behavior", "constraint", "record", "period", "final")
 Factory = Callable[[Union[Entry, Criterion], Environment], py_trees.behaviour.Behaviour]
 """``factory(entry_or_criterion, environment) -> Behaviour``."""
+
+
+class LeafError(TypeError):
+    """A user leaf's ``update()`` returned something that is not a :class:`py_trees.common.Status`.
+
+    py_trees would log an error line on stdout every tick and carry on with
+    INVALID; raised instead, it ends the run with verdict ``error`` naming the entry.
+    """
+
+
+def _checked_update(node: py_trees.behaviour.Behaviour) -> Callable[[], py_trees.common.Status]:
+    """*node*'s ``update`` that raises :class:`LeafError` for a non-Status result (user leaves only)."""
+    update = node.update
+    Status = py_trees.common.Status
+
+    def checked() -> py_trees.common.Status:
+        self = node  # noqa: F841 - the run's error report finds the entry by the frame's 'self'
+        status = update()
+        if not isinstance(status, Status):
+            shown = repr(status) if len(repr(status)) < 60 else type(status).__name__
+            raise LeafError(f"{type(node).__name__}.update() returned {shown}, not a py_trees Status")
+        return status
+
+    return checked
 
 
 class FactoryError(TypeError):
@@ -140,6 +164,8 @@ class Registry:
         if not isinstance(node, py_trees.behaviour.Behaviour):
             raise FactoryError(f"{item.id}: the factory for {kind} {item.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
         setattr(node, "btgen_entry" if is_entry else "btgen_criterion", item)
+        if not type(node).__module__.startswith("btgen_pytrees."):
+            node.update = _checked_update(node)  # type: ignore[method-assign]
         return node
 
     def copy(self) -> "Registry":

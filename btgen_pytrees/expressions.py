@@ -11,6 +11,8 @@ The language::
 
     numbers, true/false        1, 2.5, 1e3, true, false
     signal names               speed, brake_1          (not starting with "_")
+    dotted signal names        ego.speed, sim.collisions  (a system's signals: one name,
+                                                       never attribute access)
     arithmetic                 + - * / %               (no power operator at all)
     comparisons                == != < <= > >=         (chains like 0 <= x < 5 work)
     logic                      and or not   &&  ||  !
@@ -48,13 +50,16 @@ _TOKEN = re.compile(
     r"""
     (?P<ws>\s+)
   | (?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)
-  | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
+  | (?P<name>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*)
   | (?P<op>&&|\|\||==|!=|<=|>=|[<>+\-*/%(),!])
     """,
     re.VERBOSE,
 )
 _GLUED = re.compile(r"[A-Za-z0-9_.]+")
 _TRANSLATE = {"&&": " and ", "||": " or ", "!": " not ", "true": "True", "false": "False"}
+_ALIAS = "_s{}"
+"""A dotted name reaches Python as ``_s0``, ``_s1``, ...: no attribute node can ever be
+parsed, and no signal can be called so (names starting with "_" are refused)."""
 
 _ALLOWED = (
     ast.Expression, ast.BoolOp, ast.And, ast.Or, ast.UnaryOp, ast.Not, ast.USub, ast.UAdd,
@@ -79,6 +84,7 @@ class Expression:
     source: str
     names: frozenset[str]
     _code: Any = field(repr=False, compare=False)
+    _aliases: tuple[tuple[str, str], ...] = field(default=(), repr=False, compare=False)
 
     def evaluate(self, values: Mapping[str, Any]) -> Any:
         """Evaluate against signal *values*.
@@ -90,13 +96,17 @@ class Expression:
         missing = [n for n in self.names if n not in values]
         if missing:
             raise ExpressionError(f"signal {sorted(missing)[0]!r} has no value")
+        scope = {**FUNCTIONS, **values}
+        for alias, name in self._aliases:
+            scope[alias] = values[name]
         try:
-            return eval(self._code, {"__builtins__": {}}, {**FUNCTIONS, **values})  # noqa: S307 - checked AST
+            return eval(self._code, {"__builtins__": {}}, scope)  # noqa: S307 - checked AST
         except (ArithmeticError, TypeError, ValueError) as exc:
             raise ExpressionError(f"{exc} in {self.source!r}") from None
 
 
-def _translate(text: str) -> str:
+def _translate(text: str, aliases: dict[str, str]) -> str:
+    """Python source for *text*; each dotted name gets an alias in *aliases* (name -> alias)."""
     out: list[str] = []
     pos = 0
     while pos < len(text):
@@ -104,8 +114,10 @@ def _translate(text: str) -> str:
         if m is None:
             raise ExpressionError(f"unexpected character {text[pos]!r} at column {pos + 1}")
         kind, tok = m.lastgroup, m.group()
-        if kind == "name" and tok.startswith("_"):
+        if kind == "name" and any(part.startswith("_") for part in tok.split(".")):
             raise ExpressionError(f"names starting with '_' are not allowed ({tok!r})")
+        if kind == "name" and "." in tok:
+            tok = aliases.setdefault(tok, _ALIAS.format(len(aliases)))
         if kind == "name" and tok in ("True", "False", "None"):
             raise ExpressionError(f"unknown name {tok!r} (write true/false in lower case)")
         if kind == "number" and len(tok) > 40:
@@ -120,8 +132,9 @@ def _translate(text: str) -> str:
     return "".join(out)
 
 
-def _check(tree: ast.AST) -> frozenset[str]:
+def _check(tree: ast.AST, aliases: Mapping[str, str]) -> frozenset[str]:
     names: set[str] = set()
+    dotted = {alias: name for name, alias in aliases.items()}
     called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
     for node in ast.walk(tree):
         if not isinstance(node, _ALLOWED):
@@ -135,7 +148,7 @@ def _check(tree: ast.AST) -> frozenset[str]:
             if func.id != "abs" and len(node.args) == 1:
                 raise ExpressionError(f"{func.id}() needs at least two arguments")
         elif isinstance(node, ast.Name) and node.id not in FUNCTIONS:
-            names.add(node.id)
+            names.add(dotted.get(node.id, node.id))
         elif isinstance(node, ast.Name) and id(node) not in called:
             raise ExpressionError(f"{node.id!r} is a function; call it as {node.id}(...)")
         elif isinstance(node, ast.Constant):
@@ -154,16 +167,17 @@ def parse(text: str) -> Expression:
         raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
     if not text.strip():
         raise ExpressionError("empty expression")
-    source = _translate(text)
+    aliases: dict[str, str] = {}
+    source = _translate(text, aliases)
     try:
         tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"syntax error: {exc.msg}") from None
     except (MemoryError, RecursionError):
         raise ExpressionError("expression nested too deeply") from None
-    names = _check(tree)
+    names = _check(tree, aliases)
     try:
         code = compile(tree, "<expect>", "eval")
     except (MemoryError, RecursionError):
         raise ExpressionError("expression nested too deeply") from None
-    return Expression(text, names, code)
+    return Expression(text, names, code, tuple((alias, name) for name, alias in aliases.items()))

@@ -10,7 +10,9 @@ nothing, because its checks assume what the earlier ones guarantee:
    wrong types, missing keys, bad identifiers, ...).
 2. **meaning** - what a schema cannot say: duplicate ids, ``after`` naming an
    unknown id or the entry itself, cycles, ``from`` ≥ ``to``, expressions,
-   signal names, unknown actions and each action's own ``params`` schema.
+   signal names, unknown actions and each action's own ``params`` schema, the
+   ``system`` (a registered type, options from its allow-list, its own checks
+   through ``SystemType.describe``; its signals are read-only).
 
 Problems are raised together as :class:`~btgen_pytrees.errors.InvalidTestCase`.
 
@@ -40,6 +42,7 @@ from .expressions import RESERVED, Expression, ExpressionError, parse
 from .leaves import Registry, default_registry
 from .validation import SchemaValidator
 from .model import EMPTY, Criterion, Entry, TestCase
+from .systems.base import SystemInfo, SystemSpec
 
 __all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS"]
 
@@ -329,12 +332,47 @@ def _suggest(word: str, candidates: Iterable[str]) -> str:
 class _Checker:
     """Collects meaning-level problems of one schema-valid document."""
 
-    def __init__(self, data: Mapping[str, Any], registry: Registry):
+    def __init__(self, data: Mapping[str, Any], registry: Registry, source: str = "<dict>", system: SystemSpec | None = None):
         self.data = data
         self.registry = registry
         self.problems: list[Problem] = []
         self.declares_signals = "signals" in data
         self.signals: Mapping[str, Any] = data.get("signals", {})
+        self.source = source
+        self.spec = system if system is not None else _spec(data.get("system"), source)
+        self.owned: frozenset[str] = frozenset()  # signals the system owns (read-only for the test)
+        self.writers: Mapping[str, str] = {}
+        self.known: frozenset[str] = frozenset(self.signals)  # names expressions may read, when checked
+        self.system_checked = False  # the system's own checks passed: its signal list is complete
+
+    def check_system(self) -> None:
+        """The system's type, options and configuration; learn the signals it owns."""
+        spec = self.spec
+        system_type = self.registry.system(spec.type)
+        if system_type is None:
+            installed = self.registry.systems()
+            self.add(("system", "type"), f"unknown system {_shown(spec.type)}{_suggest(spec.type, installed)}; installed: "
+                     f"{', '.join(installed) or 'none'} (a plugin may add it: --plugin MODULE or --plugin FILE.py)", "system")  # fmt: skip
+            return
+        problems = _option_problems(spec.options, system_type)
+        for index, message in problems:
+            self.add(("system", "options", index), message, "system")
+        try:
+            info = system_type.describe(spec, self.data)
+        except Exception as exc:  # noqa: BLE001 - a third-party system's bug is a problem, not a traceback
+            self.add(("system",), f"system {spec.type!r} could not check the case: {type(exc).__name__}: {exc}", "system")
+            return
+        if not isinstance(info, SystemInfo):
+            self.add(("system",), f"system {spec.type!r}: describe() returned {type(info).__name__}, not SystemInfo", "system")
+            return
+        reported = {("system", "options", index) for index, _ in problems}
+        for problem in info.problems:
+            if tuple(problem.path) not in reported:
+                self.problems.append(problem)
+        self.owned = frozenset(info.signals)
+        self.writers = dict(info.writers)
+        self.known = frozenset(self.signals) | self.owned
+        self.system_checked = not info.problems
 
     def add(self, path: tuple[PathPart, ...], message: str, cause: str) -> None:
         self.problems.append(Problem(path, message, cause))
@@ -345,16 +383,27 @@ class _Checker:
         except ExpressionError as exc:
             self.add(path, f"bad expression {_shown(text)}: {exc}", "expression")
             return None
-        if self.declares_signals:
-            for name in sorted(expr.names - set(self.signals)):
-                self.add(path, f"unknown signal {name!r} in {_shown(text)}{_suggest(name, self.signals)}", "signal")
+        for name in sorted(expr.names - self.known):
+            if self._checked(name):
+                self.add(path, f"unknown signal {name!r} in {_shown(text)}{_suggest(name, self.known)}", "signal")
         return expr
 
-    def signal(self, name: str, path: tuple[PathPart, ...]) -> None:
+    def _checked(self, name: str) -> bool:
+        """Whether *name* must be a known signal: all names once ``signals`` is declared;
+        dotted names always (only a system has them), unless the system's own checks failed."""
+        if "." in name:
+            return self.system_checked
+        return self.declares_signals
+
+    def signal(self, name: str, path: tuple[PathPart, ...], action: str | None = None) -> None:
         if name in RESERVED:
             self.add(path, f"{name!r} is a reserved word of expressions, not a signal name", "signal")
-        elif self.declares_signals and name not in self.signals:
-            self.add(path, f"unknown signal {name!r}{_suggest(name, self.signals)}", "signal")
+        elif name in self.owned and not (action or "").startswith(self.spec.type + "."):
+            writer = self.writers.get(name)
+            how = f"use the action {writer!r} instead" if writer else f"use an action of the {self.spec.type!r} system to change it"
+            self.add(path, f"signal {name!r} belongs to the {self.spec.type!r} system and is read-only for the test; {how}", "signal")
+        elif name not in self.known and self._checked(name):
+            self.add(path, f"unknown signal {name!r}{_suggest(name, self.known)}", "signal")
 
     def check_signals(self) -> None:
         for name in self.signals:
@@ -435,7 +484,7 @@ class _Checker:
                 return {}
         for name in leaf.signals:
             if isinstance(params.get(name), str):
-                self.signal(params[name], (*path, "params", name))
+                self.signal(params[name], (*path, "params", name), action)
         compiled = {}
         for name in leaf.expressions:
             if isinstance(params.get(name), str):
@@ -525,8 +574,60 @@ def _sort_key(problem: Problem) -> tuple[Any, ...]:
     return tuple((0, p, "") if isinstance(p, int) else (1, 0, p) for p in problem.path), problem.message
 
 
-def validate(data: Any, source: str = "<dict>", registry: Registry | None = None) -> TestCase:
-    """Check parsed JSON *data* and build the :class:`TestCase`; raise :class:`InvalidTestCase`."""
+def _spec(raw: Mapping[str, Any] | None, source: str) -> SystemSpec:
+    """The case's ``system`` key as a :class:`SystemSpec`, ``config`` resolved relative to the case file."""
+    if raw is None:
+        return SystemSpec()
+    config = raw.get("config")
+    if config is not None:
+        base = os.path.dirname(os.path.abspath(source)) if source != "<dict>" else os.getcwd()
+        config = os.path.normpath(os.path.join(base, config))
+    return SystemSpec(raw["type"], config, tuple(raw.get("options", ())))
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _option_problems(options: tuple[str, ...], system_type: Any) -> list[tuple[int, str]]:
+    """Options not on *system_type*'s allow-list, as ``(index, message)``.
+
+    An item starting with ``-`` is an option: its name (before any ``=``) must be
+    on the list. Any other item is the value of the option just before it (at
+    most one value per option; a negative number counts as a value), so a stray
+    item - a file name, say - can never slip through as a positional argument.
+    """
+    allowed = sorted(getattr(system_type, "options", ()) or ())
+    problems: list[tuple[int, str]] = []
+    value_may_follow = False
+    for index, item in enumerate(options):
+        if value_may_follow and (not item.startswith("-") or _is_number(item)):
+            value_may_follow = False
+            continue
+        if not item.startswith("-"):
+            problems.append((index, f"{_shown(item)} is not an option (options start with '-', each followed by at most one value)"))
+            continue
+        name, eq, _ = item.partition("=")
+        value_may_follow = not eq
+        if name not in allowed:
+            if not allowed:
+                problems.append((index, f"the {system_type.name!r} system takes no options"))
+            else:
+                tip = _suggest(name, allowed) or f" (allowed: {', '.join(allowed)})"
+                problems.append((index, f"option {_shown(name)} is not allowed for the {system_type.name!r} system{tip}"))
+    return problems
+
+
+def validate(data: Any, source: str = "<dict>", registry: Registry | None = None, system: SystemSpec | None = None) -> TestCase:
+    """Check parsed JSON *data* and build the :class:`TestCase`; raise :class:`InvalidTestCase`.
+
+    *system*, if given, replaces the case's own ``system`` (``run --system``; its
+    ``config`` is used as given, so resolve it first).
+    """
     registry = registry if registry is not None else default_registry()
     problems = sorted(set(_value_problems(data)), key=_sort_key)  # stage 0 (fuzz findings, see above)
     if problems:
@@ -534,7 +635,8 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
     problems = sorted(set(_schema_problems(data)), key=_sort_key)
     if problems:
         raise InvalidTestCase(problems, source)
-    checker = _Checker(data, registry)
+    checker = _Checker(data, registry, source, system)
+    checker.check_system()
     checker.check_signals()
     checker.check_limits()
     entries = checker.entries()
@@ -558,15 +660,20 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
         criteria=tuple(criteria),
         relation=MappingProxyType({"record": relation.get("record", "&&"), "others": relation.get("others", "&&")}),
         source=source,
+        system=checker.spec,
     )
 
 
-def load(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Registry | None = None) -> TestCase:
+def load(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Registry | None = None,
+         system: SystemSpec | None = None) -> TestCase:  # fmt: skip
     """Load a test case from a file path or an already parsed ``dict``.
+
+    Args:
+        system: replaces the case's ``system`` key (``run --system``), checked the same way
 
     Raises:
         InvalidTestCase: with every problem found (see :mod:`btgen_pytrees.errors`).
     """
     if isinstance(source, Mapping):
-        return validate(source, "<dict>", registry)
-    return validate(load_json(source), os.fspath(source), registry)
+        return validate(source, "<dict>", registry, system)
+    return validate(load_json(source), os.fspath(source), registry, system)

@@ -107,7 +107,31 @@ REJECTED = {
     # too deep for the parser
     "parentheses": "(" * 400 + "1" + ")" * 400,
     "unary-chain": "-" * 999 + "1",
+    # dotted signal names (ego.speed) are one name, never attribute access
+    "dotted-dunder": "ego.__class__ > 0",
+    "dotted-dunder-inside": "ego.__dict__.speed > 0",
+    "dotted-underscore-part": "ego._speed > 0",
+    "dotted-call": "ego.speed(1)",
+    "dotted-function-call": "max.x(1, 2)",
+    "dotted-subscript": "ego.speed[0]",
+    "dotted-after-call": "abs(x).real > 0",
+    "dotted-after-group": "(ego).speed > 0",
+    "dotted-spaced": "ego . speed > 0",
+    "dotted-trailing": "ego. > 0",
+    "dotted-leading": ".speed > 0",
+    "dotted-number-part": "ego.1 > 0",
+    "dotted-alias": "_s0 > 0",
+    "dotted-literal": "1.real > 0",
 }
+
+
+def test_dotted_names_are_looked_up_whole_never_as_attributes() -> None:
+    e = parse("x.real + ego.speed > 1 && abs(x.imag) == 0")
+    assert e.names == {"x.real", "ego.speed", "x.imag"}
+    assert e.evaluate({"x.real": 5, "ego.speed": 0, "x.imag": 0}) is True
+    with pytest.raises(ExpressionError, match="'x.imag' has no value"):
+        e.evaluate({"x": 3, "x.real": 5, "ego.speed": 0})  # not 3 .imag
+    assert sorted(e._code.co_names) == ["_s0", "_s1", "_s2", "abs"]  # plain name loads, no attribute names
 
 
 @pytest.mark.parametrize("text", list(REJECTED.values()), ids=list(REJECTED))

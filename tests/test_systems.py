@@ -37,7 +37,7 @@ class Counter:
         self.log.append(f"publish {self.k}")
         if self.fail_at == "publish" and self.k == self.fail_tick:
             raise SystemFailure("lost the connection")
-        env.write("n", self.k)
+        env.publish("n", self.k)
 
     def tick(self) -> None:
         self.log.append(f"tick {self.k}")

@@ -126,7 +126,7 @@ def test_missing_and_unknown_params() -> None:
     "expect, words",
     [
         ("speed <=", "syntax error"),
-        ("speed.real > 0", "unexpected character"),
+        ("speed.real > 0", "unknown signal 'speed.real'"),  # a dotted name is one signal name, never an attribute
         ("__import__('os')", "names starting with '_'"),
         ("open(1) > 0", "only abs(), min() and max()"),
         ("2 ** 1000", "Pow"),

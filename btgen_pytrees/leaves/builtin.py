@@ -15,7 +15,9 @@ from .registry import Registry
 __all__ = ["register_builtins", "PARAMS"]
 
 _SECONDS = {"type": "number", "minimum": 0, "description": "seconds, >= 0"}
-_SIGNAL = {"type": "string", "pattern": "^[A-Za-z][A-Za-z0-9_]*(?![\\s\\S])", "description": "a signal name"}
+# dotted names (ego.speed) are allowed here so that writing a system's signal gets the read-only message
+_SIGNAL = {"type": "string", "pattern": "^[A-Za-z][A-Za-z0-9_]*(?:[.][A-Za-z][A-Za-z0-9_]*)*(?![\\s\\S])",
+           "description": "a signal name"}
 _VALUE = {"type": ["number", "boolean"]}
 
 

@@ -5,7 +5,7 @@ py_trees blackboard (default ``/btgen_pytrees/<test name>``, made unique per
 generated tree), so two trees in one process never see each other's signals or
 completion flags, and keys of the host application are never touched::
 
-    <ns>/signals/<name>   simulated signal values
+    <ns>/signals/<name>   signal values (written by leaves, published by a system or host)
     <ns>/done/<id>        set when an entry that a trigger waits for has succeeded
     <ns>/failed/<id>      set when a member of an ``||`` oracle group has failed
     <ns>/execute_done     set when the execute subtree has succeeded
@@ -69,6 +69,8 @@ class Environment:
         self.clock: Clock = clock if clock is not None else WallClock()
         self.system = system
         self.initial_signals: dict[str, Any] = dict(signals or {})
+        self._written: set[str] = set()  # signals written with write() since the run began
+        self._runs = 0
         self._signals = ns + "/signals/"
         self._done = ns + "/done/"
         self._failed = ns + "/failed/"
@@ -77,14 +79,28 @@ class Environment:
 
     # -- run lifecycle -------------------------------------------------
     def start_run(self) -> None:
-        """Forget everything of an earlier run, then set t0 and the initial signals."""
-        prefix = self.namespace + "/"
+        """Forget what an earlier run of this tree left, then set t0 and the initial signals.
+
+        Forgotten: completion flags, t0, and every signal written with
+        :meth:`write` since the earlier run began (by leaves, initial values, a
+        host using ``write``). Kept: values the tree did not write - published by
+        a system (:meth:`publish`) or by a host before the tree's first tick. An
+        initial signal is written only where no value is kept, so it never
+        overwrites a system's value or a host's.
+        """
+        prefix, signals = self.namespace + "/", self._signals
         storage = Blackboard.storage
-        for key in [k for k in storage if k.startswith(prefix)]:
+        for key in [k for k in storage if k.startswith(prefix) and not k.startswith(signals)]:
             del storage[key]
+        if self._runs:  # before the first run, every value was written by the host: keep it
+            for name in self._written:
+                storage.pop(signals + name, None)
+        self._written = set()
+        self._runs += 1
         Blackboard.set(self._t0, self.clock.now())
         for name, value in self.initial_signals.items():
-            self.write(name, value)
+            if signals + name not in storage:
+                self.write(name, value)
 
     def now(self) -> float:
         """Seconds since the run's first tick (0.0 before it)."""
@@ -96,6 +112,8 @@ class Environment:
         return Blackboard.storage[self._signals + name]
 
     def write(self, name: str, value: Any) -> None:
+        """Set signal *name*, as the test: a re-run of the tree forgets it (see :meth:`start_run`)."""
+        self._written.add(name)
         if "." in name:  # Blackboard.set would take 'ego.speed' as attribute 'speed' of key 'ego'
             Blackboard.storage[self._signals + name] = value
         else:
@@ -105,6 +123,11 @@ class Environment:
         """The current values of those *names* that have one."""
         storage, prefix = Blackboard.storage, self._signals
         return {n: storage[prefix + n] for n in names if prefix + n in storage}
+
+    def publish(self, name: str, value: Any) -> None:
+        """Set signal *name* as its owner outside the tree (a system, the host): the tree's
+        start never forgets it, and its initial value never overwrites it."""
+        Blackboard.storage[self._signals + name] = value
 
     # -- completion flags --------------------------------------------------
     def mark_done(self, entry_id: str) -> None:

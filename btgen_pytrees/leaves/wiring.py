@@ -3,8 +3,9 @@
 None of these stand for an entry of the test case; they make the timeline's
 ordering work without the leaves knowing about it:
 
-* :class:`RunStart` - first leaf of the ``begin`` sequence: clears the tree's
-  namespace of an earlier run, notes t0, writes the initial signals.
+* :class:`RunStart` - first leaf of the ``begin`` sequence: clears what an
+  earlier run left in the tree's namespace, notes t0, writes the initial signals
+  that have no value yet (see :meth:`Environment.start_run`).
 * :class:`Completion` - a decorator that marks its child's success on the
   blackboard (``<ns>/done/<id>``, or ``<ns>/execute_done`` for the execute
   subtree). Only entries that some trigger waits for are wrapped.

@@ -69,11 +69,16 @@ class SystemInfo:
             expressions may read them, ``set``/``ramp`` may not write them
         problems: what is wrong with the configuration, as
             :class:`~btgen_pytrees.errors.Problem` s (JSON path into the case)
+        extra: anything else the type wants to pass on
+        writers: see below
     """
 
     signals: Collection[str] = ()
     problems: tuple["Problem", ...] = ()
     extra: Mapping[str, Any] = field(default_factory=dict)
+    writers: Mapping[str, str] = field(default_factory=dict)
+    """Optional: owned signal -> the action that changes it (``{"ego.speed": "sumo.speed"}``),
+    named by the loader when a ``set``/``ramp`` tries to write that signal."""
 
 
 class SystemFailure(RuntimeError):

@@ -209,3 +209,126 @@ def test_collector_mid_run_says_running_and_a_rerun_starts_a_new_report(fig1_pat
             break
     assert collector.report().to_json() == run(loaded).to_json()
     assert mid.execute[2].id == "B2" and mid.execute[2].status == "running"  # an earlier report is not changed afterwards
+
+
+# -- the 'system' key, owned signals, the initial-signal rule ------------------------------
+
+
+def problems(data: dict[str, Any], **kw: Any) -> list[str]:
+    with pytest.raises(btgen_pytrees.InvalidTestCase) as info:
+        btgen_pytrees.load(data, registry=registry(), **kw)
+    return [f"{p.pointer}: {p.message}" for p in info.value.problems]
+
+
+COUNTER = {"type": "counter"}
+
+
+def test_system_key_is_checked_with_json_paths() -> None:
+    assert problems(case(entry("A"), system={"type": "countr"})) == [
+        "/system/type: unknown system 'countr' (did you mean 'counter'?); installed: counter, simulated "
+        "(a plugin may add it: --plugin MODULE or --plugin FILE.py)"]  # fmt: skip
+    assert problems(case(entry("A"), system={"type": "counter", "option": []})) == [
+        "/system/option: unknown key 'option' (did you mean 'options'?)"]  # fmt: skip
+    assert problems(case(entry("A"), system={"type": "counter", "options": ["--fast", "1", "--output", "x", "/etc/passwd"]})) == [
+        "/system/options/2: option '--output' is not allowed for the 'counter' system (allowed: --fast)",
+        "/system/options/4: '/etc/passwd' is not an option (options start with '-', each followed by at most one value)"]  # fmt: skip
+    assert problems(case(entry("A"), system={"type": "simulated", "config": "x.cfg"})) == [
+        "/system/config: the simulated system takes no config file"]  # fmt: skip
+    loaded = btgen_pytrees.load(case(entry("A"), system={"type": "counter", "options": ["--fast=1"]}), registry=registry())
+    assert loaded.system == SystemSpec("counter", None, ("--fast=1",))
+
+
+def test_config_is_resolved_relative_to_the_case_file(tmp_path: Any) -> None:
+    path = tmp_path / "sub" / "case.json"
+    path.parent.mkdir()
+    path.write_text(json.dumps(case(entry("A"), system={"type": "counter", "config": "../scenario/x.cfg"})))
+    assert btgen_pytrees.load(path, registry=registry()).system.config == str(tmp_path / "scenario" / "x.cfg")
+
+
+def test_expression_names_are_checked_against_the_systems_signals() -> None:
+    data = case(entry("A"), system=COUNTER, criteria=[crit("F", "final", "n >= 0 && m.x > 1")])
+    assert problems(data) == ["/oracle/criteria/0/expect: unknown signal 'm.x' in 'n >= 0 && m.x > 1'"]
+    data = case(entry("A"), system=COUNTER, signals={"v": 0}, criteria=[crit("F", "final", "v + nn > 1")])
+    assert problems(data) == ["/oracle/criteria/0/expect: unknown signal 'nn' in 'v + nn > 1' (did you mean 'n'?)"]
+
+
+def test_signals_a_system_owns_are_read_only_for_set_and_ramp() -> None:
+    data = case(entry("S", action="set", signal="n", value=3), entry("R", action="ramp", signal="n", to=1, duration=1),
+                system=COUNTER)  # fmt: skip
+    assert problems(data) == [
+        "/execute/0/params/signal: signal 'n' belongs to the 'counter' system and is read-only for the test; "
+        "use an action of the 'counter' system to change it",
+        "/execute/1/params/signal: signal 'n' belongs to the 'counter' system and is read-only for the test; "
+        "use an action of the 'counter' system to change it"]  # fmt: skip
+
+    class Named(CounterType):
+        def describe(self, spec: SystemSpec, case_data: Any) -> SystemInfo:
+            return SystemInfo(signals=("n",), writers={"n": "counter.set"})
+
+    reg = registry()
+    reg.register_system(Named(), replace=True)
+    with pytest.raises(btgen_pytrees.InvalidTestCase, match="use the action 'counter.set' instead"):
+        btgen_pytrees.load(case(entry("S", action="set", signal="n", value=3), system=COUNTER), registry=reg)
+
+
+def test_describe_that_raises_is_a_problem_not_a_traceback() -> None:
+    class Broken(CounterType):
+        def describe(self, spec: SystemSpec, case_data: Any) -> SystemInfo:
+            raise RuntimeError("oops")
+
+    reg = registry()
+    reg.register_system(Broken(), replace=True)
+    with pytest.raises(btgen_pytrees.InvalidTestCase, match="/system: system 'counter' could not check the case: RuntimeError: oops"):
+        btgen_pytrees.load(case(entry("A"), system=COUNTER), registry=reg)
+
+
+def test_a_case_naming_a_system_runs_against_it() -> None:
+    reg = registry()
+    loaded = btgen_pytrees.load(case(entry("H", duration=0.2), system=COUNTER, criteria=[crit("F", "final", "n == 2")]), registry=reg)
+    report = run(loaded, registry=reg)
+    assert (report.verdict, report.oracles[0].values) == ("pass", {"n": 2})
+
+
+def test_initial_signals_never_overwrite_a_hosts_value_and_a_rerun_starts_clean() -> None:
+    data = case(entry("S", action="set", signal="speed", value=70, duration=0.2), entry("H", ["S"], duration=0.1),
+                signals={"speed": 50, "brake": 0}, criteria=[crit("F", "final", "speed == 70")])  # fmt: skip
+    loaded = btgen_pytrees.load(data)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    env = root.btgen_env
+    env.write("speed", 30)  # the host, before the first tick
+    seen = []
+    for k in range(2):
+        clock.set(k * 0.1)
+        root.tick_once()
+        seen.append(env.read("speed"))
+    assert seen == [70, 70] and env.read("brake") == 0  # the set leaf wrote 70; brake got its initial value
+    env.write("brake", 1)
+    root.stop(Status.INVALID)
+    root.tick_once()  # a re-run: what the test wrote is forgotten, the initial values apply again
+    assert env.read("brake") == 0
+
+    first = btgen_pytrees.generate(btgen_pytrees.load(case(entry("H"), signals={"speed": 50})), clock=VirtualClock())
+    first.btgen_env.write("speed", 30)
+    first.tick_once()
+    assert first.btgen_env.read("speed") == 30  # write 30 before the first tick, read back 30 (not 50)
+    first.stop(Status.INVALID)
+    first.tick_once()
+    assert first.btgen_env.read("speed") == 30  # the host's value, not the test's: kept on a re-run
+    second = btgen_pytrees.generate(btgen_pytrees.load(case(entry("H"), signals={"speed": 50})), clock=VirtualClock())
+    second.tick_once()
+    second.btgen_env.write("speed", 40)
+    second.stop(Status.INVALID)
+    second.tick_once()
+    assert second.btgen_env.read("speed") == 50  # written during a run: a re-run starts clean
+    second.btgen_env.publish("speed", 45)  # a system's (or host's) value between runs is kept
+    second.stop(Status.INVALID)
+    second.tick_once()
+    assert second.btgen_env.read("speed") == 45
+
+
+def test_a_systems_published_value_wins_over_the_initial_value() -> None:
+    reg = registry()
+    loaded = btgen_pytrees.load(case(entry("H", duration=0.1), system=COUNTER, signals={"n": 99},
+                                     criteria=[crit("F", "final", "n == 1")]), registry=reg)  # fmt: skip
+    assert run(loaded, registry=reg).verdict == "pass"

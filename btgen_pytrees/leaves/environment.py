@@ -127,6 +127,7 @@ class Environment:
     def publish(self, name: str, value: Any) -> None:
         """Set signal *name* as its owner outside the tree (a system, the host): the tree's
         start never forgets it, and its initial value never overwrites it."""
+        self._written.discard(name)
         Blackboard.storage[self._signals + name] = value
 
     # -- completion flags --------------------------------------------------

@@ -20,7 +20,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
-from typing import Callable, Iterable, Sequence, TextIO
+from typing import Any, Callable, Iterable, Sequence, TextIO
 
 from .errors import MAX_LINE, Interrupt, is_interrupt, printable, shorten, xml_safe
 
@@ -204,16 +204,17 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
 
 
 def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
-            junit: bool = False) -> Outcome:  # fmt: skip
+            junit: bool = False, system: Any = None) -> Outcome:  # fmt: skip
     """Run one case; outputs: ``<target>.report.json``, ``<target>.junit.xml`` and, with *plot*
     (``svg``/``png``/``html``), ``<target>.<plot>``. With *junit* the JUnit text also comes back
-    (``Outcome.junit``) for one batch-wide file."""
+    (``Outcome.junit``) for one batch-wide file. *system* (a ``SystemSpec``) replaces the case's
+    (``run --system``)."""
     from .leaves import default_registry
     from .loader import load
     from .run import run
 
     registry = default_registry(plugins)
-    case = load(path, registry=registry)
+    case = load(path, registry=registry, system=system)
     report = run(case, registry=registry)
     outputs: list[tuple[str, str | bytes]] = []
     if target is not None:

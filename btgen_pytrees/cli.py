@@ -23,6 +23,7 @@ from .leaves import FactoryError, PluginError, Registry, default_registry
 from .loader import load, schema_text
 from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, GraphvizMissing, render
+from .systems import SystemSpec
 from .timeline import timeline
 
 __all__ = ["main", "MAX_JOBS"]
@@ -319,6 +320,16 @@ def _plot_check(path: str) -> str:
     return fmt
 
 
+def _system(args: argparse.Namespace) -> SystemSpec | None:
+    """``--system TYPE[:CONFIG]`` as a spec (CONFIG relative to the current directory), or None."""
+    if not args.system:
+        return None
+    kind, colon, config = args.system.partition(":")
+    if not kind or (colon and not config):
+        raise UsageError(f"--system {args.system}: expected TYPE or TYPE:CONFIG")
+    return SystemSpec(kind, os.path.abspath(config) if config else None)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from .run import run
 
@@ -342,8 +353,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             if args.junit:
                 commit([(args.junit, batch.merge_junit(outcomes))])
 
+        system = _system(args)
         return _batch(args, files, batch.job_run,
-                      lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit)), after=junit)  # fmt: skip
+                      lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system), after=junit)  # fmt: skip
     for option in ("json", "junit", "plot"):
         _check_output(getattr(args, option), f"--{option}", [args.file])
     if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
@@ -352,7 +364,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         _plot_check(args.plot)
         plot_format(args.plot)
     registry = _registry(args)
-    case = load(args.file, registry=registry)
+    case = load(args.file, registry=registry, system=_system(args))
     trace = (lambda line: _err(line)) if args.trace else None
     report = run(case, registry=registry, trace=trace)
     outputs: list[tuple[str, str | bytes]] = []
@@ -405,8 +417,8 @@ def _parser() -> argparse.ArgumentParser:
                       help=f"with several files: worker processes, 1 to {MAX_JOBS} (default: the number of CPUs)")  # fmt: skip
     many.add_argument("--out-dir", metavar="DIR", help="write each file's output into DIR (made when first written)")
     plugin = argparse.ArgumentParser(add_help=False)
-    plugin.add_argument("--plugin", action="append", metavar="MODULE",
-                        help="import MODULE and call its register(registry) to add leaves (repeatable)")  # fmt: skip
+    plugin.add_argument("--plugin", action="append", metavar="MODULE|FILE.py",
+                        help="import MODULE (the current directory is importable) or the Python file FILE.py and call its register(registry) to add leaves or systems (repeatable)")  # fmt: skip
 
     show = sub.add_parser("show", parents=[plugin, many], help="print the generated tree (default command)")
     show.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
@@ -420,11 +432,12 @@ def _parser() -> argparse.ArgumentParser:
     validate.add_argument("--quiet", "-q", action="store_true", help="print problems only")
     validate.set_defaults(func=cmd_validate)
 
-    run = sub.add_parser("run", parents=[plugin, many], help="run the tree on the virtual-clock simulator and print verdicts")
+    run = sub.add_parser("run", parents=[plugin, many], help="run the tree against its system (default: the virtual-clock simulator) and print verdicts")
     run.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
     run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML (several files: one file, a testsuite per case)")
     run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")
+    run.add_argument("--system", metavar="TYPE[:CONFIG]", help="run against this system instead of the case's own (CONFIG relative to the current directory); checked like the case's 'system'")
     run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")
     run.set_defaults(func=cmd_run)
 

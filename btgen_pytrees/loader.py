@@ -339,7 +339,10 @@ class _Checker:
         self.declares_signals = "signals" in data
         self.signals: Mapping[str, Any] = data.get("signals", {})
         self.source = source
-        self.spec = system if system is not None else _spec(data.get("system"), source)
+        own = _spec(data.get("system"), source)
+        if system is not None and not system.options and system.type == own.type:
+            system = SystemSpec(system.type, system.config, own.options)  # options written for this type still apply
+        self.spec = system if system is not None else own
         self.owned: frozenset[str] = frozenset()  # signals the system owns (read-only for the test)
         self.writers: Mapping[str, str] = {}
         self.known: frozenset[str] = frozenset(self.signals)  # names expressions may read, when checked
@@ -352,7 +355,7 @@ class _Checker:
         if system_type is None:
             installed = self.registry.systems()
             self.add(("system", "type"), f"unknown system {_shown(spec.type)}{_suggest(spec.type, installed)}; installed: "
-                     f"{', '.join(installed) or 'none'} (a plugin may add it: --plugin MODULE or --plugin FILE.py)", "system")  # fmt: skip
+                     f"{', '.join(installed) or 'none'} (a plugin may add it: --plugin MODULE or FILE.py)", "system")  # fmt: skip
             return
         problems = _option_problems(spec.options, system_type)
         for index, message in problems:
@@ -470,7 +473,7 @@ class _Checker:
             hint = f" ({action!r} is a {other} action)" if other and action in self.registry.actions(other) else ""
             hint = hint or _suggest(action, known)
             listed = ", ".join(known) if known else "none"
-            self.add((*path, "action"), f"unknown {kind} action {_shown(action)}{hint}; known: {listed}", "action")
+            self.add((*path, "action"), f"unknown {kind} action {_shown(action)}{hint}; known: {listed}{self._plugin_hint(action)}", "action")
             return {}
         validator = leaf.params_validator
         if validator is not None:
@@ -492,6 +495,14 @@ class _Checker:
                 if expr is not None:
                     compiled[name] = expr
         return compiled
+
+    def _plugin_hint(self, action: str) -> str:
+        """Where an unknown action may come from: a system that is not installed, or a plugin."""
+        prefix = action.partition(".")[0] if "." in action else None
+        if prefix is not None and self.registry.system(prefix) is None:
+            installed = ", ".join(self.registry.systems()) or "none"
+            return f" (system {prefix!r} is not installed; installed: {installed}; a plugin may add it: --plugin MODULE or FILE.py)"
+        return " (a plugin may add it: --plugin MODULE or FILE.py)"
 
     def criteria(self) -> list[Criterion]:
         out = []
@@ -626,7 +637,8 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
     """Check parsed JSON *data* and build the :class:`TestCase`; raise :class:`InvalidTestCase`.
 
     *system*, if given, replaces the case's own ``system`` (``run --system``; its
-    ``config`` is used as given, so resolve it first).
+    ``config`` is used as given, so resolve it first). The case's ``options``
+    are kept when *system* names the same type and gives none.
     """
     registry = registry if registry is not None else default_registry()
     problems = sorted(set(_value_problems(data)), key=_sort_key)  # stage 0 (fuzz findings, see above)

@@ -226,7 +226,7 @@ COUNTER = {"type": "counter"}
 def test_system_key_is_checked_with_json_paths() -> None:
     assert problems(case(entry("A"), system={"type": "countr"})) == [
         "/system/type: unknown system 'countr' (did you mean 'counter'?); installed: counter, simulated "
-        "(a plugin may add it: --plugin MODULE or --plugin FILE.py)"]  # fmt: skip
+        "(a plugin may add it: --plugin MODULE or FILE.py)"]  # fmt: skip
     assert problems(case(entry("A"), system={"type": "counter", "option": []})) == [
         "/system/option: unknown key 'option' (did you mean 'options'?)"]  # fmt: skip
     assert problems(case(entry("A"), system={"type": "counter", "options": ["--fast", "1", "--output", "x", "/etc/passwd"]})) == [
@@ -332,3 +332,105 @@ def test_a_systems_published_value_wins_over_the_initial_value() -> None:
     loaded = btgen_pytrees.load(case(entry("H", duration=0.1), system=COUNTER, signals={"n": 99},
                                      criteria=[crit("F", "final", "n == 1")]), registry=reg)  # fmt: skip
     assert run(loaded, registry=reg).verdict == "pass"
+
+
+# -- plugins by file path and --system, through the CLI -------------------------------------
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
+
+PLUGIN = '''
+import os
+from btgen_pytrees.errors import Problem
+from btgen_pytrees.systems import SystemInfo
+from helper_module import STEP  # a neighbour of this file: its directory is importable while it loads
+
+
+class Clock:
+    def __init__(self, tick):
+        self.k, self.tick_s = 0, tick
+    def start(self, env):
+        pass
+    def now(self):
+        return round(self.k * self.tick_s, 9)
+    def publish(self, env):
+        env.publish("clock.k", self.k * STEP)
+    def tick(self):
+        self.k += 1
+    def close(self):
+        pass
+
+
+class ClockType:
+    name = "clock"
+    options = ()
+    def describe(self, spec, case_data):
+        if spec.config is not None and not os.path.isfile(spec.config):
+            return SystemInfo(problems=(Problem(("system", "config"), f"no such file: {spec.config}", "system"),))
+        return SystemInfo(signals=("clock.k",))
+    def create(self, spec, case):
+        return Clock(case.tick)
+
+
+def register(registry):
+    registry.register_system(ClockType())
+'''
+
+
+def cli(*args: str, cwd: Any = ROOT) -> Any:
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in __import__("os").environ.items() if k != "PYTHONPATH"}
+    return subprocess.run([sys.executable, "-m", "btgen_pytrees", *args], capture_output=True, text=True, timeout=120, cwd=cwd, env=env)
+
+
+@pytest.fixture
+def clock_plugin(tmp_path: Any) -> Any:
+    (tmp_path / "plugins").mkdir()
+    (tmp_path / "plugins" / "clock_system.py").write_text(PLUGIN)
+    (tmp_path / "plugins" / "helper_module.py").write_text("STEP = 2\n")
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "clock.cfg").write_text("")
+    data = case(entry("H", duration=0.3), name="clocked", system={"type": "clock", "config": "clock.cfg"},
+                criteria=[crit("F", "final", "clock.k == 6")])  # fmt: skip
+    (tmp_path / "cases" / "clocked.json").write_text(json.dumps(data))
+    return tmp_path
+
+
+def test_plugin_by_file_path_from_the_repository_root() -> None:
+    result = cli("run", "examples/host_app/pick.json", "--plugin", "examples/host_app/robot.py")
+    assert result.returncode == 0 and "pick: PASS" in result.stdout, result.stderr
+    missing = cli("run", "examples/host_app/pick.json", "--plugin", "examples/host_app/nope.py")
+    assert missing.returncode == 2 and "plugin 'examples/host_app/nope.py': no such file" in missing.stderr
+
+
+def test_a_third_party_system_from_a_plugin_file_and_the_system_override(clock_plugin: Any) -> None:
+    plugin = str(clock_plugin / "plugins" / "clock_system.py")
+    ok = cli("run", "cases/clocked.json", "--plugin", plugin, cwd=clock_plugin)
+    assert ok.returncode == 0 and "clocked: PASS after 0.3 s" in ok.stdout, ok.stderr + ok.stdout
+    # the case names a system nobody installed: the error says where systems come from
+    no_plugin = cli("run", "cases/clocked.json", cwd=clock_plugin)
+    assert no_plugin.returncode == 2 and "cases/clocked.json: /system/type: unknown system 'clock'; installed: simulated " \
+        "(a plugin may add it: --plugin MODULE or FILE.py)" in no_plugin.stderr  # fmt: skip
+    # --system replaces the case's system: the simulated one does not own clock.k
+    simulated = cli("run", "cases/clocked.json", "--plugin", plugin, "--system", "simulated", cwd=clock_plugin)
+    assert simulated.returncode == 2 and "/oracle/criteria/0/expect: unknown signal 'clock.k'" in simulated.stderr
+    # --system TYPE:CONFIG resolves CONFIG against the current directory, not the case file's
+    wrong = cli("run", "cases/clocked.json", "--plugin", plugin, "--system", "clock:clock.cfg", cwd=clock_plugin)
+    assert wrong.returncode == 2 and f"no such file: {clock_plugin / 'clock.cfg'}" in wrong.stderr
+    right = cli("run", "cases/clocked.json", "--plugin", plugin, "--system", "clock:cases/clock.cfg", cwd=clock_plugin)
+    assert right.returncode == 0, right.stderr
+
+
+def test_module_plugin_imports_from_the_current_directory_and_puts_sys_path_back(clock_plugin: Any, monkeypatch: Any) -> None:
+    import sys
+
+    monkeypatch.chdir(clock_plugin / "plugins")
+    before = list(sys.path)
+    reg = default_registry(["clock_system"])
+    assert reg.system("clock") is not None and sys.path == before
+    unknown = btgen_pytrees.InvalidTestCase
+    with pytest.raises(unknown, match=r"unknown behavior action 'clock.wind'; known: hold, ramp, set \(a plugin may add it"):
+        btgen_pytrees.load(case(entry("W", action="clock.wind")), registry=reg)
+    with pytest.raises(unknown, match=r"'sumx.speed'; known: hold, ramp, set \(system 'sumx' is not installed; installed: clock, simulated; a plugin"):
+        btgen_pytrees.load(case(entry("W", action="sumx.speed")), registry=reg)

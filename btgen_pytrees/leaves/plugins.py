@@ -9,16 +9,28 @@ generator in one of three ways:
   ``btgen_pytrees.leaves`` (``[project.entry-points."btgen_pytrees.leaves"]``,
   ``my_robot = "my_robot.leaves:register"``); every registry made by
   :func:`btgen_pytrees.leaves.default_registry` includes it;
-* on the command line: ``--plugin my_robot.leaves`` imports that module and calls
-  its ``register``.
+* on the command line: ``--plugin my_robot.leaves`` imports that module (the
+  current directory is importable while it does) and calls its ``register``;
+  ``--plugin path/to/robot.py`` does the same with a file (its directory is
+  importable while it runs, so it may import its neighbours).
+
+Systems under test (:mod:`btgen_pytrees.systems`) come the same way: a plugin's
+``register`` calls ``registry.register_system(...)`` and registers the system's
+actions as leaves named ``<system>.<action>``.
 """
 
 from __future__ import annotations
 
+import hashlib
 import importlib
+import importlib.util
+import os
+import sys
+from contextlib import contextmanager
 from functools import lru_cache
 from importlib.metadata import entry_points
-from typing import Callable, Iterable
+from types import ModuleType
+from typing import Callable, Iterable, Iterator
 
 from ..errors import is_interrupt
 from .registry import Registry
@@ -50,10 +62,60 @@ def installed_plugins() -> tuple[tuple[str, Register], ...]:
     return tuple(found)
 
 
-def load_module_plugin(module: str) -> tuple[str, Register]:
-    """Import *module* and return its ``register`` function."""
+def is_path(plugin: str) -> bool:
+    """Whether ``--plugin`` names a file (``robot.py``, ``x/robot``) rather than a module (``my_robot.leaves``)."""
+    return plugin.endswith(".py") or os.sep in plugin or "/" in plugin
+
+
+@contextmanager
+def _importable(directory: str) -> Iterator[None]:
+    """*directory* on ``sys.path`` for the duration (unless it already is); put back exactly."""
+    added = directory not in sys.path
+    if added:
+        sys.path.insert(0, directory)
     try:
-        mod = importlib.import_module(module)
+        yield
+    finally:
+        if added and directory in sys.path:
+            sys.path.remove(directory)
+
+
+def _import_file(path: str) -> ModuleType:
+    """Import the Python file *path* as a module named after it (reused if that file is already imported)."""
+    full = os.path.abspath(path)
+    if not os.path.isfile(full):
+        raise PluginError(f"plugin {path!r}: no such file")
+    stem = os.path.splitext(os.path.basename(full))[0]
+    name = stem if stem.isidentifier() else "btgen_plugin"
+    loaded = sys.modules.get(name)
+    if loaded is not None and os.path.abspath(getattr(loaded, "__file__", None) or "") == full:
+        return loaded
+    if loaded is not None:  # another module of that name: do not replace it
+        name = f"btgen_plugin_{hashlib.sha1(full.encode()).hexdigest()[:12]}"
+    spec = importlib.util.spec_from_file_location(name, full)
+    if spec is None or spec.loader is None:
+        raise PluginError(f"plugin {path!r}: not a Python file")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        with _importable(os.path.dirname(full)):
+            spec.loader.exec_module(module)
+    except BaseException:
+        sys.modules.pop(name, None)
+        raise
+    return module
+
+
+def load_module_plugin(module: str) -> tuple[str, Register]:
+    """Import *module* (a module name, or the path of a ``.py`` file) and return its ``register`` function."""
+    try:
+        if is_path(module):
+            mod = _import_file(module)
+        else:
+            with _importable(os.getcwd()):
+                mod = importlib.import_module(module)
+    except PluginError:
+        raise
     except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt at import are the plugin's error
         if is_interrupt(exc):
             raise

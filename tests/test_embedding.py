@@ -125,6 +125,7 @@ def test_host_app_example_runs_headless() -> None:
                             capture_output=True, text=True, timeout=60, cwd=ROOT)  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert "test pick: SUCCESS" in result.stdout and "/_/ host app" in result.stdout and "--> heartbeat" in result.stdout
+    assert "\npick: PASS after " in result.stdout and "\nexecute " in result.stdout  # the Collector's table, at the end
 
 
 def test_embedded_under_a_host_root_with_visitors_and_rerun() -> None:

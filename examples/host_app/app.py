@@ -9,7 +9,10 @@ The app registers its own leaves (``robot.register``), loads and validates the
 test case, puts the generated tree under its own root next to a leaf of its
 own, ticks the whole tree with wall-clock time using py_trees'
 ``BehaviourTree.tick_tock`` and prints py_trees' snapshot display after every
-tick. Exit code 0 if the test passed.
+tick. A :class:`btgen_pytrees.run.Collector` visitor collects the run; at the
+end the app prints its verdict table - the same table ``python -m btgen_pytrees
+run`` prints (``collector.report()`` also gives the JSON report and JUnit XML).
+Exit code 0 if the test passed.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import robot  # noqa: E402
 
 import btgen_pytrees  # noqa: E402
 from btgen_pytrees.leaves import default_registry  # noqa: E402
+from btgen_pytrees.run import Collector  # noqa: E402
 
 
 class Heartbeat(py_trees.behaviour.Behaviour):
@@ -61,10 +65,13 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     snapshot = py_trees.visitors.DisplaySnapshotVisitor(display_only_visited_behaviours=True)
     tree.add_visitor(snapshot)
+    collector = Collector(test_tree)  # the test's results, exactly as `run` reports them
+    tree.add_visitor(collector)
     tree.setup(timeout=5)
     tree.tick_tock(period_ms=20, number_of_iterations=500, stop_on_terminal_state=True)
     tree.shutdown()
     print(f"test {test_tree.name}: {test_tree.status.value}")
+    print(collector.report().table(), end="")
     return 0 if test_tree.status == Status.SUCCESS else 1
 
 

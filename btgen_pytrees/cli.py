@@ -13,7 +13,7 @@ import argparse
 import os
 import signal
 import sys
-from typing import Any, Callable, NoReturn, Sequence, TextIO
+from typing import TYPE_CHECKING, Any, Callable, NoReturn, Sequence, TextIO
 
 from . import __version__
 from . import batch
@@ -25,6 +25,10 @@ from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, GraphvizMissing, render
 from .systems import SystemSpec
 from .timeline import timeline
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .model import TestCase
+    from .run.report import Report
 
 __all__ = ["main", "MAX_JOBS"]
 
@@ -330,6 +334,38 @@ def _system(args: argparse.Namespace) -> SystemSpec | None:
     return SystemSpec(kind, os.path.abspath(config) if config else None)
 
 
+def _replay_check(args: argparse.Namespace) -> None:
+    """--replay needs Graphviz, --btlog a .btlog name: found out before the run, not after it."""
+    if args.replay:
+        from .run.replay import require_graphviz
+
+        try:
+            require_graphviz()
+        except GraphvizMissing as missing:
+            raise UsageError(str(missing)) from None
+    if args.btlog and os.path.splitext(args.btlog)[1].lower() != ".btlog" and not is_direct(args.btlog):
+        raise UsageError(f"--btlog {args.btlog}: the file name must end in .btlog (Groot2 opens only those)")
+
+
+def _replay_outputs(args: argparse.Namespace, report: Report, case: TestCase, registry: Registry) -> list[tuple[str, bytes]]:
+    """The --replay page and the --btlog file, drawn from the run's trace on a tree generated alike."""
+    if not (args.replay or args.btlog):
+        return []
+    from .run.btlog import BtlogError, btlog_bytes
+    from .run.replay import replay_html
+
+    outputs = []
+    if args.replay:
+        outputs.append((args.replay, replay_html(report, case, generate(case, registry=registry), max_depth=args.max_depth)))
+    if args.btlog:
+        try:
+            if report.trace is not None:
+                outputs.append((args.btlog, btlog_bytes(report.trace, generate(case, registry=registry))))
+        except BtlogError as problem:
+            raise UsageError(f"--btlog {args.btlog}: {problem}") from None
+    return outputs
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from .run import run
 
@@ -337,6 +373,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if files is not None:
         if args.json or args.trace:
             raise UsageError("--json/--trace take one file; with several use --out-dir (a report per file)")
+        if args.replay or args.btlog:
+            raise UsageError("--replay/--btlog take one file")
         plot = None
         if args.plot:
             if not args.out_dir:
@@ -356,8 +394,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         system = _system(args)
         return _batch(args, files, batch.job_run,
                       lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system), after=junit)  # fmt: skip
-    for option in ("json", "junit", "plot"):
+    for option in ("json", "junit", "plot", "replay", "btlog"):
         _check_output(getattr(args, option), f"--{option}", [args.file])
+    _replay_check(args)
     if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
         from .run.plot import plot_format
 
@@ -376,6 +415,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         from .run.plot import plot_bytes, plot_format
 
         outputs.append((args.plot, plot_bytes(report, case, plot_format(args.plot))))
+    outputs += _replay_outputs(args, report, case, registry)
     commit(outputs)  # all together, after everything was made: a failure leaves none
     _print(report.table())
     return EXIT_OK if report.passed else EXIT_FAIL
@@ -439,6 +479,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")
     run.add_argument("--system", metavar="TYPE[:CONFIG]", help="run against this system instead of the case's own (CONFIG relative to the current directory); checked like the case's 'system'")
     run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")
+    run.add_argument("--replay", metavar="PATH", help="write a replay page of the run to PATH: one self-contained HTML file (tree, time slider, statuses, signals, verdicts); needs Graphviz")
+    run.add_argument("--max-depth", type=_non_negative, metavar="N", help="--replay: draw nodes down to depth N only (default: collapse deep subtrees of trees over 400 nodes)")
+    run.add_argument("--btlog", metavar="PATH", help="write the run as a BehaviorTree.CPP .btlog (FileLogger2) for Groot2")
     run.set_defaults(func=cmd_run)
 
     schema = sub.add_parser("schema", help="print the test case JSON Schema")

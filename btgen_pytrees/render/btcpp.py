@@ -62,7 +62,8 @@ from py_trees.decorators import Decorator
 from ..leaves.wiring import Completion, OrMember, RunStart, Trigger
 from .info import is_selected, policy_name, selected
 
-__all__ = ["btcpp_xml", "port_value", "port_name", "port_names", "BUILTINS", "format_btcpp"]
+__all__ = ["btcpp_xml", "btcpp_document", "BtcppDocument", "port_value", "port_name", "port_names", "BUILTINS",
+           "format_btcpp"]
 
 Policy = py_trees.common.ParallelPolicy
 
@@ -148,6 +149,8 @@ class _Export:
     def __init__(self) -> None:
         self.models: dict[tuple[str, str], _Model] = {}
         self.uses: list[tuple[ET.Element, _Model]] = []
+        self.elements: dict[int, ET.Element] = {}
+        self.wrappers: dict[int, tuple[ET.Element, ET.Element, ET.Element]] = {}
 
     # -- node types -------------------------------------------------------------
 
@@ -279,9 +282,10 @@ def _walk(root: py_trees.behaviour.Behaviour, top: ET.Element, export: _Export) 
         opaque = element is not None and not isinstance(node, (Completion, OrMember))
         if element is None:
             element = export.composite(parent, node)
+        export.elements[id(node)] = element
         if wrapper is not None:
             keep = ET.SubElement(wrapper, "KeepRunningUntilFailure", name=f"{node.name} finished")
-            ET.SubElement(keep, "AlwaysSuccess")
+            export.wrappers[id(node)] = (wrapper, keep, ET.SubElement(keep, "AlwaysSuccess"))
         if not opaque:
             stack.extend((child, element) for child in reversed(node.children))
 
@@ -297,8 +301,27 @@ def _model_element(model: _Model) -> ET.Element:
     return element
 
 
-def btcpp_xml(root: py_trees.behaviour.Behaviour) -> str:
-    """*root* as BehaviorTree.CPP v4 XML text (deterministic; see the module notes)."""
+@dataclass
+class BtcppDocument:
+    """The export as an element tree, with where each py_trees node went.
+
+    Attributes:
+        document: the ``<root>`` element
+        tree: its ``<BehaviorTree>``
+        elements: ``id(node)`` -> the node's element (nodes inside an entry's or
+            criterion's leaf subtree have none: the leaf is one Action)
+        wrappers: ``id(node)`` -> ``(Sequence, KeepRunningUntilFailure, AlwaysSuccess)``
+            around a child that a ``SuccessOnSelected`` policy did not select
+    """
+
+    document: ET.Element
+    tree: ET.Element
+    elements: dict[int, ET.Element]
+    wrappers: dict[int, tuple[ET.Element, ET.Element, ET.Element]]
+
+
+def btcpp_document(root: py_trees.behaviour.Behaviour) -> BtcppDocument:
+    """*root* as a BehaviorTree.CPP v4 element tree (what :func:`btcpp_xml` prints)."""
     tree_id = root.name or "tree"
     document = ET.Element("root", BTCPP_format="4", main_tree_to_execute=tree_id)
     document.append(ET.Comment(
@@ -310,6 +333,12 @@ def btcpp_xml(root: py_trees.behaviour.Behaviour) -> str:
     models = ET.SubElement(document, "TreeNodesModel")
     for model in sorted(export.models.values(), key=lambda m: (m.id, m.tag)):
         models.append(_model_element(model))
+    return BtcppDocument(document, tree, export.elements, export.wrappers)
+
+
+def btcpp_xml(root: py_trees.behaviour.Behaviour) -> str:
+    """*root* as BehaviorTree.CPP v4 XML text (deterministic; see the module notes)."""
+    document = btcpp_document(root).document
     ET.indent(document, space="  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(document, encoding="unicode") + "\n"
 

@@ -95,9 +95,9 @@ LEGEND = (
 class GraphvizMissing(RuntimeError):
     """Graphviz's ``dot`` program is not on ``PATH``; ``str()`` is a one-line hint."""
 
-    def __init__(self, fmt: str):
+    def __init__(self, fmt: str, option: str | None = None):
         super().__init__(
-            f"--format {fmt} needs Graphviz's 'dot' program, which is not on PATH: install Graphviz "
+            f"{option or '--format ' + fmt} needs Graphviz's 'dot' program, which is not on PATH: install Graphviz "
             "(Debian/Ubuntu: apt-get install graphviz; macOS: brew install graphviz; conda: conda install graphviz) "
             "or use --format dot"
         )
@@ -175,19 +175,22 @@ def _add_legend(graph: pydot.Dot, collapsed: bool) -> None:
     graph.add_subgraph(legend)
 
 
-def dot_graph(root: py_trees.behaviour.Behaviour, *, max_depth: int | None = None, legend: bool = True) -> pydot.Dot:
+def dot_graph(root: py_trees.behaviour.Behaviour, *, max_depth: int | None = None, legend: bool = True,
+              endpoints: dict[int, str] | None = None) -> pydot.Dot:  # fmt: skip
     """Build the review picture of *root* as a pydot graph (see the module notes).
 
     Args:
         max_depth: show nodes down to this depth (root = 0); each deeper subtree
             becomes one dashed ``… N more nodes`` box, which keeps its wait edges
         legend: add the legend cluster
+        endpoints: if given, filled with ``id(node)`` -> the graph node that shows
+            it (``n<i>``, or the ``n<i>_more`` box it is collapsed into)
     """
     graph = pydot.Dot("btgen", graph_type="digraph", ordering="out", rankdir="TB", labelloc="t",
                       label=_quoted(root.name), fontsize="20", fontname=_quoted(FONT))  # fmt: skip
     graph.set_node_defaults(fontname=_quoted(FONT), fontsize="10")
     graph.set_edge_defaults(fontname=_quoted(FONT), fontsize="9")
-    endpoint: dict[int, str] = {}  # id(behaviour) -> its graph node, or the box it is collapsed into
+    endpoint: dict[int, str] = endpoints if endpoints is not None else {}  # id(behaviour) -> its graph node or box
     entries: dict[str, str] = {}  # entry id -> same
     hidden: dict[str, int] = {}  # collapsed box -> how many nodes it stands for
     triggers: list[Trigger] = []

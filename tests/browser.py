@@ -1,0 +1,83 @@
+"""Headless Chromium for the replay page tests, and the README's screenshot of the page.
+
+Chromium and its driver come from Debian packages (``apt-get install chromium
+chromium-driver``; ``.ci/run`` installs them); selenium drives them. Both paths
+are given explicitly, so selenium-manager never tries to download a browser.
+
+Run as a script to remake the README picture::
+
+    python tests/browser.py docs/images/fig1-replay.png
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import sys
+import tempfile
+from typing import Any, Iterator
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMEDRIVER = "/usr/bin/chromedriver"
+FLAGS = (
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--disable-dev-shm-usage", "--window-size=1500,900",
+)  # fmt: skip
+
+
+def chromium_present() -> bool:
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return False
+    return all(os.access(p, os.X_OK) for p in (CHROMIUM, CHROMEDRIVER))
+
+
+@contextlib.contextmanager
+def chromium() -> Iterator[Any]:
+    """A selenium Chrome driver on Debian's Chromium, with a fresh profile that is removed afterwards."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    profile = tempfile.mkdtemp(prefix="btgen-chromium-")
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in FLAGS:
+        options.add_argument(flag)
+    options.add_argument(f"--user-data-dir={profile}")
+    driver = webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=options)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+        shutil.rmtree(profile, ignore_errors=True)
+
+
+def make_screenshot(case_path: str, png: str, tick: int = 12) -> None:
+    """Run *case_path*, write its replay page, open it, step to *tick* with the keyboard and save a screenshot."""
+    import pathlib
+
+    import btgen_pytrees
+    from btgen_pytrees.run import run
+    from btgen_pytrees.run.replay import replay_html
+
+    case = btgen_pytrees.load(case_path)
+    page = pathlib.Path(tempfile.mkdtemp(prefix="btgen-replay-")) / "replay.html"
+    page.write_bytes(replay_html(run(case), case, btgen_pytrees.generate(case)))
+    with chromium() as driver:
+        driver.set_window_size(1400, 820)
+        driver.get(page.as_uri())
+        body = driver.find_element("tag name", "body")
+        body.send_keys("\ue011")  # Home: tick 0
+        for _ in range(tick):
+            body.send_keys("\ue014")  # →
+        driver.save_screenshot(png)
+    shutil.rmtree(page.parent, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    make_screenshot(os.path.join(root, "examples", "fig1_failing.json"),
+                    sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "docs", "images", "fig1-replay.png"))  # fmt: skip

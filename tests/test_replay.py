@@ -62,6 +62,7 @@ def test_page_is_self_contained_and_its_data_is_the_trace() -> None:
     assert data["transitions"] == trace.to_data()["transitions"] and data["times"] == trace.times
     assert data["signals"]["speed"] == [[k, v] for k, v in zip(*trace.signals["speed"])]
     assert data["verdict"] == "fail" and data["oracles"][0]["message"] == report.oracles[0].message
+    assert data["message"] == report.message and data["explanation"] == list(getattr(report, "explanation", []))
     assert len(data["graph"]) == len(trace.nodes) and data["collapsedBelow"] is None
 
 
@@ -161,6 +162,8 @@ def test_browser_slider_and_keys_follow_the_trace(tmp_path: pathlib.Path) -> Non
         state = page_status(driver)
         assert {k: state[k] for k in ("tick", "nodes", "signals")} == expected_at(report, last)
         assert state["oracles"]["R1"] == "failure" == trace.status_at(r1, last)
+        why = driver.find_element("id", "why").text
+        assert report.message in why and report.oracles[0].message in why  # the explanation heads the page
         # move the slider with the mouse: to its left end, then a little right
         slider = driver.find_element("id", "slider")
         width = slider.size["width"]

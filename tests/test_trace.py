@@ -164,3 +164,71 @@ def test_the_cap_bounds_memory_and_says_where_it_cut() -> None:
 
 def test_statuses_are_btcpp_codes() -> None:
     assert STATUSES == ("invalid", "running", "success", "failure")  # IDLE, RUNNING, SUCCESS, FAILURE
+
+
+class Odometer:
+    """A system that owns ``odo`` (its step count) and ``lap`` (which changes every third step)."""
+
+    def __init__(self, tick: float):
+        self.k, self.step = 0, tick
+
+    def start(self, env: Any) -> None:
+        pass
+
+    def now(self) -> float:
+        return round(self.k * self.step, 9)
+
+    def publish(self, env: Any) -> None:
+        env.publish("odo", self.k)
+        env.publish("lap", self.k // 3)
+
+    def tick(self) -> None:
+        self.k += 1
+
+    def close(self) -> None:
+        pass
+
+
+class OdometerType:
+    name = "odometer"
+    options = ()
+
+    def describe(self, spec: Any, case_data: Any) -> Any:
+        from btgen_pytrees.systems import SystemInfo
+
+        return SystemInfo(signals=("odo", "lap"))
+
+    def create(self, spec: Any, case: Any) -> Odometer:
+        return Odometer(case.tick)
+
+
+def test_a_systems_own_signals_are_recorded_every_tick_they_change() -> None:
+    registry = default_registry()
+    registry.register_system(OdometerType())
+    data = case(entry("C1", action="until", expect="odo >= 7"), system={"type": "odometer"}, tick=0.5)
+    report = run(btgen_pytrees.load(data, registry=registry), registry=registry)
+    assert report.verdict == "pass" and report.duration == 3.5
+    trace = report.trace
+    assert trace.series("odo") == [(k * 0.5, k) for k in range(8)]  # read by until only, written by the system
+    assert trace.series("lap") == [(0.0, 0), (1.5, 1), (3.0, 2)]  # read by nobody: recorded when it changed
+
+
+def test_a_host_attaches_the_recorder_to_its_own_tree(fig1_path: str) -> None:
+    """The recorder is a py_trees visitor: under a host's BehaviourTree it records what run() records."""
+    loaded = btgen_pytrees.load(fig1_path)
+    clock = VirtualClock()
+    ours = btgen_pytrees.generate(loaded, clock=clock)
+    host = py_trees.composites.Sequence("host", memory=False, children=[py_trees.behaviours.Success("warm-up"), ours])
+    tree = py_trees.trees.BehaviourTree(host)
+    recorder = TraceRecorder(ours)
+    tree.add_visitor(recorder)
+    tree.setup()
+    for k in range(40):
+        clock.set(round(k * loaded.tick, 9))
+        tree.tick()
+        if ours.status != py_trees.common.Status.RUNNING:
+            break
+    expected = run(loaded).trace
+    assert recorder.trace.times == expected.times
+    assert list(recorder.trace.transitions()) == list(expected.transitions())
+    assert {n: recorder.trace.series(n) for n in recorder.trace.signals} == {n: expected.series(n) for n in expected.signals}

@@ -103,6 +103,7 @@ def _page_data(report: Report, case: TestCase, trace: RunTrace | None, graph_of:
         "verdict": report.verdict,
         "headline": headline,
         "message": report.message,
+        "explanation": [str(line) for line in getattr(report, "explanation", None) or ()],
         "times": trace.times if trace is not None else [],
         "graph": graph_of,
         "graphNames": names,
@@ -270,8 +271,11 @@ _SCRIPT = r"""
   $("headline").textContent = data.headline;
   $("headline").className = data.verdict;
   const why = [];
+  const said = (text) => why.some((line) => line.includes(text));
   if (data.message) why.push(data.message);
-  for (const o of data.oracles) if (o.verdict === "fail" && o.message && !data.message.includes(o.message)) why.push(o.id + ": " + o.message);
+  for (const line of data.explanation) if (!said(line)) why.push(line);
+  for (const o of data.oracles) if (o.verdict === "fail" && o.message && !said(o.message)) why.push(o.id + ": " + o.message);
+  for (const e of data.execute) if (e.status === "failure" && e.message && !said(e.message)) why.push(e.id + ": " + e.message);
   $("why").textContent = why.join("\n");
   const notes = [];
   if (data.collapsedBelow !== null) notes.push("subtrees below depth " + data.collapsedBelow + " are collapsed");

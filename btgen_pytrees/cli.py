@@ -359,8 +359,7 @@ def _replay_outputs(args: argparse.Namespace, report: Report, case: TestCase, re
         outputs.append((args.replay, replay_html(report, case, generate(case, registry=registry), max_depth=args.max_depth)))
     if args.btlog:
         try:
-            if report.trace is not None:
-                outputs.append((args.btlog, btlog_bytes(report.trace, generate(case, registry=registry))))
+            outputs.append((args.btlog, btlog_bytes(report.trace, generate(case, registry=registry))))
         except BtlogError as problem:
             raise UsageError(f"--btlog {args.btlog}: {problem}") from None
     return outputs

@@ -101,3 +101,29 @@ def test_not_a_btlog() -> None:
         parse_btlog(b"BTCPP4-FileLogger2\x02" + b"\0" * 20)
     with pytest.raises(ValueError):
         parse_btlog(b"hello")
+
+
+def test_a_run_that_never_ticked_logs_the_tree_alone(tmp_path: pathlib.Path) -> None:
+    """A leaf whose setup() raises ends the run before its first tick: the page and the log still come."""
+    import py_trees
+
+    from btgen_pytrees.leaves import default_registry
+
+    class Broken(py_trees.behaviour.Behaviour):
+        def __init__(self, entry: Any, env: Any):
+            super().__init__(name=entry.name)
+
+        def setup(self, **kwargs: Any) -> None:
+            raise RuntimeError("no hardware")
+
+        def update(self) -> py_trees.common.Status:
+            return py_trees.common.Status.SUCCESS
+
+    registry = default_registry()
+    registry.register("broken", Broken, kind="behavior", params_schema={"type": "object"})
+    data = {"name": "t", "execute": [{"id": "B1", "kind": "behavior", "action": "broken", "params": {}}]}
+    loaded = btgen_pytrees.load(data, registry=registry)
+    report = run(loaded, registry=registry)
+    assert report.verdict == "error" and report.trace is None
+    log = parse_btlog(btlog_bytes(None, btgen_pytrees.generate(loaded, registry=registry)))
+    assert log.transitions == [] and "B1" in log.names().values()

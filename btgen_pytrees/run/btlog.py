@@ -77,8 +77,11 @@ def _compact(tree: ET.Element) -> list[ET.Element]:
     return nodes
 
 
-def btlog_bytes(trace: RunTrace, root: py_trees.behaviour.Behaviour) -> bytes:
+def btlog_bytes(trace: RunTrace | None, root: py_trees.behaviour.Behaviour) -> bytes:
     """The run recorded in *trace* (of a tree like *root*: same case, freshly generated) as ``.btlog`` bytes.
+
+    Without a trace (a run that ended before its first tick) the file has the
+    tree and no transitions.
 
     Raises:
         BtlogError: the export has more than 65,535 nodes
@@ -92,7 +95,7 @@ def btlog_bytes(trace: RunTrace, root: py_trees.behaviour.Behaviour) -> bytes:
                 parent.remove(child)
     uids = {id(element): uid for uid, element in enumerate(_compact(tree), start=1)}
     behaviours = [node for _, node in walk(root)]
-    if len(behaviours) != len(trace.nodes):
+    if trace is not None and len(behaviours) != len(trace.nodes):
         raise ValueError("the trace is of another tree")
     node_uid = [uids.get(id(exported.elements.get(id(b))), 0) for b in behaviours]
     wrapped = {i: tuple(uids[id(e)] for e in exported.wrappers[id(b)]) for i, b in enumerate(behaviours)
@@ -110,6 +113,8 @@ def btlog_bytes(trace: RunTrace, root: py_trees.behaviour.Behaviour) -> bytes:
             last[uid] = code
             out.extend(usec.to_bytes(6, "little") + uid.to_bytes(2, "little") + bytes((code,)))
 
+    if trace is None:
+        return bytes(out)
     for tick, i, code in zip(trace.ticks, trace.nodes_changed, trace.statuses):
         usec = max(0, round(trace.times[tick] * 1_000_000)) & 0xFFFF_FFFF_FFFF
         if i in wrapped:

@@ -26,7 +26,10 @@ py_trees' recursive tick stays far from Python's recursion limit.
 Sequences have ``memory=True`` so a finished leaf is never ticked again;
 Parallels are ``SuccessOnAll(synchronise=True)`` so a finished branch is skipped
 while its siblings run. Children of the execute root are ordered topologically
-by their first entry, so every trigger is ticked after its predecessors.
+by their first entry, so every trigger is ticked after its predecessors. The
+execute root is a :class:`~btgen_pytrees.leaves.wiring.WakingParallel`: it ticks
+a head only once one of its trigger's predecessors is marked done, so a tick
+costs what is active, not what waits.
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ import py_trees
 from py_trees.composites import Parallel, Sequence
 
 from ..leaves import Environment, Registry
-from ..leaves.wiring import Completion, RunStart, Trigger
+from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
 from ..timeline import topological_order
 
 __all__ = ["execute_subtree", "MAX_DEPTH", "EXECUTE_DEPTH"]
@@ -174,7 +177,7 @@ class _Walk:
         stack.extend(reversed(branches))
 
     def build(self) -> Parallel:
-        root = Parallel("timeline", _all())
+        root = WakingParallel("timeline", self.env)
         roots = Parallel("roots", _all())
         root.add_child(Sequence("begin", memory=True, children=[RunStart(self.env), roots]))
         for v, d in self.indegree.items():  # file order

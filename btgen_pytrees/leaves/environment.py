@@ -15,15 +15,24 @@ Values are stored in :attr:`py_trees.blackboard.Blackboard.storage` under those
 absolute keys (so py_trees' blackboard views show them). Reads go to the storage
 directly rather than through a :class:`py_trees.blackboard.Client`: client
 attribute access would collide with signals called ``name``, ``read`` or ``set``,
-and this is the hot path of every tick.
+and this is the hot path of every tick. Writes go to the storage directly too
+(what :meth:`Blackboard.set <py_trees.blackboard.Blackboard.set>` does for an
+absolute key without dots; a signal name may hold dots, which ``Blackboard.set``
+would read as an attribute path), adding the key's metadata
+only when the key is new: ``Blackboard.set`` builds a fresh metadata object on
+every call, even for a key it already has. The completion flags (``done``,
+``failed``, ``execute_done``) of one tree share one (empty) metadata object:
+no client reads or writes them, and four long-lived objects per flag - 400,000
+for a 100,000-entry run - would make CPython's collector traverse the whole
+heap during the run.
 """
 
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING, Any, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
-from py_trees.blackboard import Blackboard
+from py_trees.blackboard import Blackboard, KeyMetaData
 
 from ..clock import Clock, WallClock
 
@@ -52,6 +61,16 @@ def unique_namespace(test_name: str) -> str:
     return candidate
 
 
+def _set(key: str, value: Any, metadata: KeyMetaData | None = None) -> None:
+    """``Blackboard.set(key, value)`` for an absolute *key* taken whole (dots too), minus its throwaway metadata.
+
+    A new key gets *metadata* (default: a new :class:`~py_trees.blackboard.KeyMetaData`).
+    """
+    Blackboard.storage[key] = value
+    if key not in Blackboard.metadata:
+        Blackboard.metadata[key] = metadata if metadata is not None else KeyMetaData()
+
+
 class Environment:
     """The namespace, clock, initial signals and system under test of one generated tree.
 
@@ -76,6 +95,8 @@ class Environment:
         self._failed = ns + "/failed/"
         self._execute_done = ns + "/execute_done"
         self._t0 = ns + "/t0"
+        self._done_listeners: list[Callable[[str], None]] = []
+        self._flags = KeyMetaData()  # shared by the completion flags' keys (see the module docstring)
 
     # -- run lifecycle -------------------------------------------------
     def start_run(self) -> None:
@@ -97,7 +118,7 @@ class Environment:
                 storage.pop(signals + name, None)
         self._written = set()
         self._runs += 1
-        Blackboard.set(self._t0, self.clock.now())
+        _set(self._t0, self.clock.now())
         for name, value in self.initial_signals.items():
             if signals + name not in storage:
                 self.write(name, value)
@@ -114,10 +135,8 @@ class Environment:
     def write(self, name: str, value: Any) -> None:
         """Set signal *name*, as the test: a re-run of the tree forgets it (see :meth:`start_run`)."""
         self._written.add(name)
-        if "." in name:  # Blackboard.set would take 'ego.speed' as attribute 'speed' of key 'ego'
-            Blackboard.storage[self._signals + name] = value
-        else:
-            Blackboard.set(self._signals + name, value)
+        # the storage directly: Blackboard.set would take 'ego.speed' as attribute 'speed' of key 'ego'
+        _set(self._signals + name, value)
 
     def values(self, names: Iterable[str]) -> dict[str, Any]:
         """The current values of those *names* that have one."""
@@ -132,19 +151,31 @@ class Environment:
 
     # -- completion flags --------------------------------------------------
     def mark_done(self, entry_id: str) -> None:
-        Blackboard.set(self._done + entry_id, True)
+        """Set ``<ns>/done/<entry_id>`` and tell every listener (see :meth:`listen_done`)."""
+        _set(self._done + entry_id, True, self._flags)
+        for listener in self._done_listeners:
+            listener(entry_id)
+
+    def listen_done(self, listener: Callable[[str], None]) -> None:
+        """Call *listener* with the entry id each time :meth:`mark_done` marks one.
+
+        This is how a waiting trigger is woken instead of polled: the composite
+        holding the triggers (:class:`~btgen_pytrees.leaves.wiring.WakingParallel`)
+        listens, so a tick costs what is active, not what waits.
+        """
+        self._done_listeners.append(listener)
 
     def is_done(self, entry_id: str) -> bool:
         return (self._done + entry_id) in Blackboard.storage
 
     def mark_failed(self, criterion_id: str) -> None:
-        Blackboard.set(self._failed + criterion_id, True)
+        _set(self._failed + criterion_id, True, self._flags)
 
     def is_failed(self, criterion_id: str) -> bool:
         return (self._failed + criterion_id) in Blackboard.storage
 
     def mark_execute_done(self) -> None:
-        Blackboard.set(self._execute_done, True)
+        _set(self._execute_done, True, self._flags)
 
     def execute_done(self) -> bool:
         return self._execute_done in Blackboard.storage

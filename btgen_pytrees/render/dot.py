@@ -43,7 +43,7 @@ from py_trees.composites import Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
 from ..leaves.wiring import Trigger
-from .info import annotation, is_selected, role, walk
+from .info import annotation, is_selected, role, type_name, walk
 
 __all__ = [
     "dot_graph", "dot_source", "graphviz_render", "GraphvizMissing", "IMAGE_FORMATS", "STYLES",
@@ -128,7 +128,7 @@ def _label(node: py_trees.behaviour.Behaviour) -> str:
     """Name on the first line, then :func:`.info.annotation` (with the composite's type)."""
     note = annotation(node)
     if role(node) == "composite" and isinstance(node, (Parallel, Sequence, Selector)):
-        note = f"{type(node).__name__}: {note}" if note else type(node).__name__
+        note = f"{type_name(node)}: {note}" if note else type_name(node)
     lines = [node.name] + textwrap.wrap(note, WRAP, break_on_hyphens=False)
     return "\n".join(lines)
 

@@ -179,12 +179,19 @@ def _capped(lines: list[str], limit: int | None = None) -> list[str]:
     return lines[:limit] + [f"… and {len(lines) - limit} more problems"]
 
 
-def job_validate(path: str, plugins: Sequence[str]) -> Outcome:
+def job_validate(path: str, plugins: Sequence[str], max_variations: int | None = None) -> Outcome:
     from .leaves import default_registry
-    from .loader import load
+    from .loader import load_json, validate
+    from .sweep import MAX_VARIATIONS, has_variations, load_sweep
 
-    case = load(path, registry=default_registry(plugins))
-    return Outcome(path, 0, f"ok: {len(case.entries)} entries, {len(case.criteria)} criteria")
+    registry = default_registry(plugins)
+    data = load_json(path)
+    case = validate(data, path, registry)
+    found = f"ok: {len(case.entries)} entries, {len(case.criteria)} criteria"
+    if has_variations(data):  # a sweep: every variation is checked
+        limit = max_variations if max_variations is not None else MAX_VARIATIONS
+        found += f", {load_sweep(data, registry=registry, max_variations=limit, source_name=path).count} variations"
+    return Outcome(path, 0, found)
 
 
 def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None) -> Outcome:
@@ -314,7 +321,7 @@ def _stop_all(slots: list[_Slot], grace: float = 0.5) -> None:
 
 def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]], paths: Sequence[str], *,
             workers: int = 1, progress: TextIO | None = None, isolate: bool | None = None,
-            on_result: Callable[[Outcome], None] | None = None) -> list[Outcome]:  # fmt: skip
+            on_result: Callable[[Outcome], None] | None = None, executor: Any = None) -> list[Outcome]:  # fmt: skip
     """Run ``job(path, *args)`` for each path (``jobs_args[i]`` are path *i*'s extra arguments).
 
     Outcomes come back in input order whatever order the workers finish in.
@@ -323,7 +330,10 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
     signal, the out-of-memory killer) costs only its own file: that file's
     outcome is an error naming the cause, a new worker takes the next file.
     *on_result* is called in this process with each outcome as it arrives
-    (the CLI writes the file's outputs there).
+    (the CLI writes the file's outputs there). *executor* (e.g.
+    :class:`btgen_pytrees.sweep.executors.DaskExecutor`) runs the jobs instead of
+    the local workers: its ``map_unordered(calls)`` yields ``(index, outcome)``
+    as they finish (anything but an Outcome is recorded as an internal error).
 
     Raises:
         Interrupted: on Ctrl-C (or a signal the caller turned into
@@ -349,7 +359,21 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
         isolate = len(paths) > 1
     slots: list[_Slot] = []
     try:
-        if not isolate:
+        if executor is not None:  # another engine (a Dask cluster): the same guarded calls
+            from functools import partial as bind
+
+            stream = executor.map_unordered([bind(_guard, job, p, *jobs_args[i]) for i, p in enumerate(paths)])
+            try:
+                for i, result in stream:
+                    ok = isinstance(result, Outcome)
+                    results[i] = result if ok else Outcome(paths[i], 3, f"internal error: {result}")
+                    if on_result is not None:
+                        on_result(results[i])  # type: ignore[arg-type]
+                    done += 1
+                    tick()
+            finally:
+                stream.close()  # stopped early (Ctrl-C): the engine cancels what is left
+        elif not isolate:
             for i, path in enumerate(paths):
                 results[i] = _guard(job, path, *jobs_args[i])
                 if on_result is not None:

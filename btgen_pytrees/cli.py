@@ -20,10 +20,12 @@ from . import batch
 from .construct import generate
 from .errors import MAX_PROBLEMS, Interrupt, InvalidTestCase, Problem, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
-from .loader import load, schema_text
+from .loader import load, load_json, schema_text, validate
 from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, GraphvizMissing, render
 from .systems import SystemSpec
+from .sweep.case import has_variations
+from .sweep.command import Refused
 from .timeline import timeline
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -33,7 +35,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["main", "MAX_JOBS"]
 
 EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
-COMMANDS = ("show", "validate", "run", "schema")
+COMMANDS = ("show", "validate", "run", "expand", "schema")
 
 MAX_JOBS = 64
 """Most worker processes ``--jobs`` may ask for (more is a usage error)."""
@@ -213,8 +215,13 @@ def _process(args: argparse.Namespace, job: Callable[..., batch.Outcome], job_ar
              files: list[str], on_result: Callable[[batch.Outcome], None] | None = None) -> list[batch.Outcome]:  # fmt: skip
     """Run *job* over *files* (in worker processes when there are several); print each file's problems."""
     workers = min(args.jobs, len(files))
-    outcomes = batch.process(job, job_args, files, workers=workers, progress=batch.progress_stream(),
-                             on_result=on_result)  # fmt: skip
+    executor = getattr(args, "dask", None)  # run --executor dask (btgen_pytrees.sweep.command)
+    try:
+        outcomes = batch.process(job, job_args, files, workers=workers, progress=batch.progress_stream(),
+                                 on_result=on_result, executor=executor)  # fmt: skip
+    finally:
+        if executor is not None:
+            executor.close()
     for outcome in outcomes:
         _problems(outcome)
     return outcomes
@@ -302,7 +309,7 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_validate(args: argparse.Namespace) -> int:
     files = _expand(args)
-    outcomes = _process(args, batch.job_validate, [(tuple(args.plugin or ()),)] * len(files), files)
+    outcomes = _process(args, batch.job_validate, [(tuple(args.plugin or ()), args.max_variations)] * len(files), files)
     if not args.quiet:
         for outcome in outcomes:
             if outcome.code == EXIT_OK:
@@ -391,6 +398,13 @@ def cmd_run(args: argparse.Namespace) -> int:
                 commit([(args.junit, batch.merge_junit(outcomes))])
 
         system = _system(args)
+        if args.executor == "dask":  # on a Dask cluster (btgen_pytrees.sweep.command)
+            from .sweep.command import dask_batch_args
+
+            executor, job, job_args = dask_batch_args(args, files, targets, plot, system)
+            args.dask = executor
+            return _batch(args, files, job, job_args, after=junit)
+
         return _batch(args, files, batch.job_run,
                       lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system), after=junit)  # fmt: skip
     for option in ("json", "junit", "plot", "replay", "btlog"):
@@ -401,8 +415,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         _plot_check(args.plot)
         plot_format(args.plot)
+    data = load_json(args.file)
+    if has_variations(data):  # a sweep: every variation (btgen_pytrees.sweep)
+        from .sweep.command import run_sweep
+
+        return run_sweep(args, data, _system(args))
     registry = _registry(args)
-    case = load(args.file, registry=registry, system=_system(args))
+    case = validate(data, args.file, registry=registry, system=_system(args))
     trace = (lambda line: _err(line)) if args.trace else None
     report = run(case, registry=registry, trace=trace)
     outputs: list[tuple[str, str | bytes]] = []
@@ -418,6 +437,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     commit(outputs)  # all together, after everything was made: a failure leaves none
     _print(report.table())
     return EXIT_OK if report.passed else EXIT_FAIL
+
+
+def cmd_expand(args: argparse.Namespace) -> int:
+    from .sweep.command import cmd_expand as expand
+
+    return expand(args)
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
@@ -450,10 +475,10 @@ def _parser() -> argparse.ArgumentParser:
         epilog="'show' is the default command: 'python -m btgen_pytrees test.json' prints the tree.",
     )
     parser.add_argument("--version", action="version", version=f"btgen_pytrees {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,schema}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,expand,schema}", parser_class=_Parser)
     many = argparse.ArgumentParser(add_help=False)
     many.add_argument("--jobs", "-j", type=int, default=min(os.cpu_count() or 1, MAX_JOBS), metavar="N",
-                      help=f"with several files: worker processes, 1 to {MAX_JOBS} (default: the number of CPUs)")  # fmt: skip
+                      help=f"with several files or a sweep: worker processes, 1 to {MAX_JOBS} (default: the number of CPUs)")  # fmt: skip
     many.add_argument("--out-dir", metavar="DIR", help="write each file's output into DIR (made when first written)")
     plugin = argparse.ArgumentParser(add_help=False)
     plugin.add_argument("--plugin", action="append", metavar="MODULE|FILE.py",
@@ -469,6 +494,7 @@ def _parser() -> argparse.ArgumentParser:
     validate = sub.add_parser("validate", parents=[plugin, many], help="check test case files; exit 0 only if all are valid")
     validate.add_argument("files", nargs="+", metavar="FILE", help="test case JSON files or directories")
     validate.add_argument("--quiet", "-q", action="store_true", help="print problems only")
+    validate.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
     validate.set_defaults(func=cmd_validate)
 
     run = sub.add_parser("run", parents=[plugin, many], help="run the tree against its system (default: the virtual-clock simulator) and print verdicts")
@@ -481,7 +507,18 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--replay", metavar="PATH", help="write a replay page of the run to PATH: one self-contained HTML file (tree, time slider, statuses, signals, verdicts); needs Graphviz")
     run.add_argument("--max-depth", type=_non_negative, metavar="N", help="--replay: draw nodes down to depth N only (default: collapse deep subtrees of trees over 400 nodes)")
     run.add_argument("--btlog", metavar="PATH", help="write the run as a BehaviorTree.CPP .btlog (FileLogger2) for Groot2")
+    run.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
+    run.add_argument("--executor", choices=("local", "dask"), default="local",
+                     help="where runs execute: local worker processes (--jobs), or a Dask cluster (--scheduler)")  # fmt: skip
+    run.add_argument("--scheduler", metavar="ADDRESS",
+                     help="with --executor dask: the scheduler, tcp://HOST:PORT (default: $DASK_SCHEDULER_ADDRESS)")  # fmt: skip
     run.set_defaults(func=cmd_run)
+
+    expand = sub.add_parser("expand", parents=[plugin], help="write each variation of a sweep as a concrete test case")
+    expand.add_argument("file", metavar="FILE", help="test case JSON file with variations")
+    expand.add_argument("--out-dir", required=True, metavar="DIR", help="write name[gap=5,...].json files into DIR")
+    expand.add_argument("--max-variations", type=int, metavar="N", help="refuse more than N variations (default 10000)")
+    expand.set_defaults(func=cmd_expand)
 
     schema = sub.add_parser("schema", help="print the test case JSON Schema")
     schema.set_defaults(func=cmd_schema)
@@ -523,7 +560,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if hasattr(args, "jobs"):
             _check_jobs(args)
         return func(args)
-    except UsageError as problem:
+    except (UsageError, Refused) as problem:
         _err(f"btgen_pytrees: {problem}")
         return EXIT_INVALID
     except InvalidTestCase as error:

@@ -644,6 +644,8 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
     problems = sorted(set(_value_problems(data)), key=_sort_key)  # stage 0 (fuzz findings, see above)
     if problems:
         raise InvalidTestCase(problems, source)
+    if type(data) is dict and ("parameters" in data or "variations" in data):
+        data = _parameterised(data, source)  # '$name' -> the defaults (btgen_pytrees.sweep)
     problems = sorted(set(_schema_problems(data)), key=_sort_key)
     if problems:
         raise InvalidTestCase(problems, source)
@@ -674,6 +676,16 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
         source=source,
         system=checker.spec,
     )
+
+
+def _parameterised(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """A case with ``parameters``/``variations``: check those blocks, substitute the defaults.
+
+    Kept out of the fast path: a case without them never imports :mod:`btgen_pytrees.sweep`.
+    """
+    from .sweep.case import nominal
+
+    return nominal(data, source)
 
 
 def load(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Registry | None = None,

@@ -1,0 +1,211 @@
+"""A parameterised test case: a template, its parameters and its variations.
+
+Two entry points:
+
+* :func:`nominal` - what :func:`btgen_pytrees.load` does with a file that has
+  ``parameters`` or ``variations``: check both blocks and every ``$name``,
+  substitute the *defaults*, and return a concrete document for the usual
+  checks. So ``show``/``validate``/``run`` of such a file with its defaults
+  behave as for any case, and the defaults must themselves make a valid case.
+* :func:`load_sweep` - for ``run``/``expand``/``validate`` of a sweep: the
+  above, then the variation count against the limit (by arithmetic, before
+  anything is built), then *every* variation substituted and validated.
+  A problem that several variations share is reported once, naming how many
+  variations have it and the first one.
+
+>>> sweep = load_sweep({"name": "s", "parameters": {"d": 1},
+...     "variations": {"d": {"from": 1, "to": 3, "step": 1}},
+...     "execute": [{"id": "A", "kind": "behavior", "action": "hold", "params": {"duration": "$d"}}]})
+>>> [(v.label, v.document["execute"][0]["params"]) for v in sweep]
+[('d=1', {'duration': 1}), ('d=2', {'duration': 2}), ('d=3', {'duration': 3})]
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any, Iterator, Mapping
+
+from ..errors import InvalidTestCase, Problem
+from ..leaves import Registry
+from .check import count_problem, meaning_problems, shape_problems
+from .parameters import find_sites, substitute
+from .variations import Point, Value, Variations, label
+
+__all__ = ["MAX_VARIATIONS", "Sweep", "Variation", "is_parameterised", "has_variations", "nominal", "load_sweep"]
+
+MAX_VARIATIONS = 10_000
+"""Most variations one sweep may have unless raised (``--max-variations``); checked before any run."""
+
+
+def is_parameterised(data: Any) -> bool:
+    """Whether *data* needs this module: it has ``parameters`` or ``variations``."""
+    return type(data) is dict and ("parameters" in data or "variations" in data)
+
+
+def has_variations(data: Any) -> bool:
+    """Whether *data* is a sweep (a ``variations`` block), i.e. ``run`` runs many cases."""
+    return type(data) is dict and "variations" in data
+
+
+@dataclass(frozen=True)
+class Variation:
+    """One concrete case of a sweep.
+
+    Attributes:
+        index: position in the sweep's order (0-based)
+        point: the varied parameters' values, as ``((name, value), ...)``
+        values: every parameter's value (defaults overridden by *point*)
+        document: the concrete test case (see :meth:`Sweep.document`)
+    """
+
+    index: int
+    point: Point
+    values: Mapping[str, Value]
+    document: Mapping[str, Any]
+
+    @property
+    def label(self) -> str:
+        """``gap=5,speed=10``."""
+        return label(self.point)
+
+
+class Sweep:
+    """A checked parameterised case; iterating gives its :class:`Variation` objects in order."""
+
+    def __init__(self, data: Mapping[str, Any], source: str):
+        self.source = source
+        self.name: str = data["name"] if isinstance(data.get("name"), str) else ""
+        self.defaults: dict[str, Value] = dict(data.get("parameters", {}))
+        self.variations = Variations.parse(data.get("variations"))
+        self.template = {k: v for k, v in data.items() if k != "variations"}
+        # a case without parameters keeps every '$' as written, as it always has
+        self.sites, self.problems = find_sites(self.template, self.defaults) if is_parameterised(data) else ([], [])
+
+    @property
+    def count(self) -> int:
+        return self.variations.count
+
+    @property
+    def varied(self) -> tuple[str, ...]:
+        """The varied parameters, in label order (``sample`` included for random sweeps)."""
+        grid = tuple(a.name for a in self.variations.grid)
+        randoms = tuple(a.name for a in self.variations.randoms)
+        return grid + (("sample",) + randoms if randoms else ())
+
+    def document(self, values: Mapping[str, Value]) -> dict[str, Any]:
+        """The concrete case for *values*: no ``$name`` left, no ``parameters``/``variations`` block.
+
+        Without ``parameters`` the result is a plain case, so a literal ``$`` (written ``$$``)
+        stays literal when it is loaded again.
+        """
+        doc = substitute(self.template, self.sites, values)
+        doc.pop("parameters", None)
+        return doc
+
+    def __iter__(self) -> Iterator[Variation]:
+        for index, point in enumerate(self.variations.points()):
+            values = {**self.defaults, **{k: v for k, v in point if k != "sample"}}
+            yield Variation(index, point, values, self.document(values))
+
+
+def _prepare(data: Mapping[str, Any], source: str) -> Sweep:
+    problems = shape_problems(data)
+    if problems:
+        raise InvalidTestCase(problems, source)
+    sweep = Sweep(data, source)
+    used = {name for site in sweep.sites for name in _names(site.text)}
+    problems = sorted(set(sweep.problems) | set(meaning_problems(data, used)), key=_sort_key)
+    if problems:
+        raise InvalidTestCase(problems, source)
+    return sweep
+
+
+def _sort_key(problem: Problem) -> Any:
+    from ..loader import _sort_key as key
+
+    return key(problem)
+
+
+def _names(text: str) -> set[str]:
+    from .parameters import REFERENCE
+
+    return {m.group(1) for m in REFERENCE.finditer(text)}
+
+
+def nominal(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """The concrete document for the defaults; raises :class:`InvalidTestCase` for the blocks' problems."""
+    sweep = _prepare(data, source)
+    return sweep.document(sweep.defaults)
+
+
+def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Registry | None = None,
+               max_variations: int = MAX_VARIATIONS, check_all: bool = True, source_name: str | None = None,
+               system: Any = None) -> Sweep:  # fmt: skip
+    """Load a sweep and check it completely before anything runs.
+
+    Args:
+        max_variations: the limit (:data:`MAX_VARIATIONS` by default)
+        check_all: validate every variation (else only the template and the defaults)
+        source_name: the file name for messages when *source* is already parsed data
+        system: replaces the case's ``system`` (``run --system``), as for :func:`btgen_pytrees.load`
+
+    Raises:
+        InvalidTestCase: the template's, the limit's and every variation's problems.
+    """
+    from ..leaves import default_registry
+    from ..loader import _value_problems, _sort_key, load_json
+
+    if isinstance(source, Mapping):
+        data, name = source, source_name or "<dict>"
+    else:
+        name = os.fspath(source)
+        data = load_json(name)
+    registry = registry if registry is not None else default_registry()
+    if not isinstance(data, dict):
+        from ..loader import validate
+
+        validate(data, name, registry, system)  # raises: not an object
+    problems = sorted(set(_value_problems(data)), key=_sort_key)  # the loader's stage 0
+    if problems:
+        raise InvalidTestCase(problems, name)
+    sweep = _prepare(data, name) if is_parameterised(data) else Sweep(data, name)
+    too_many = count_problem(data, max_variations)
+    if too_many is not None:
+        raise InvalidTestCase([too_many], name)
+    _check_variations(sweep, registry, check_all, system)
+    return sweep
+
+
+def _check_variations(sweep: Sweep, registry: Registry, every: bool, system: Any = None) -> None:
+    """Validate the defaults' case and every variation; each distinct problem once.
+
+    A problem all variations share is reported as it is; one that only some have
+    (or only the defaults) says how many and names the first.
+    """
+    from ..loader import validate
+
+    seen: dict[Problem, list[str]] = {}
+    defaults = "the defaults"
+    cases = [(defaults, sweep.document(sweep.defaults) if sweep.sites or "parameters" in sweep.template else sweep.template)]
+    for label_, document in cases + ([(v.label, v.document) for v in sweep] if every else []):
+        try:
+            validate(document, sweep.source, registry, system)
+        except InvalidTestCase as error:
+            for problem in error.problems:
+                seen.setdefault(problem, []).append(label_)
+    if not seen:
+        return
+    problems = []
+    for problem, labels in seen.items():
+        varied = [x for x in labels if x != defaults]
+        if every and len(varied) < sweep.count:
+            if not varied:
+                where = "with the defaults"
+            elif len(varied) == 1:
+                where = f"in variation: [{varied[0]}]"
+            else:
+                where = f"in {len(varied)} of {sweep.count} variations: [{varied[0]}], ..."
+            problem = Problem(problem.path, f"{problem.message} ({where})", problem.cause)
+        problems.append(problem)
+    raise InvalidTestCase(sorted(problems, key=_sort_key), sweep.source)

@@ -1,0 +1,110 @@
+"""The job a worker runs for one variation: validate its concrete case, run it, return a row.
+
+The job receives the case *data* (a concrete document), never a path, so it
+runs the same in a local worker process and on a Dask worker on another
+machine. It returns a :class:`VariationOutcome` - a batch
+:class:`~btgen_pytrees.batch.Outcome` carrying the row for the sweep report -
+so :func:`btgen_pytrees.batch.process` (its pool, its progress bar, its error
+guard) runs sweeps and batches alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Any, Mapping, Sequence
+
+from ..batch import Outcome
+from ..leaves import Registry
+
+__all__ = ["VariationOutcome", "job_variation", "job_run_shipped", "row_of", "margin_of"]
+
+
+@dataclass
+class VariationOutcome(Outcome):
+    """An :class:`Outcome` with the variation's result row (see :func:`row_of`)."""
+
+    row: dict[str, Any] = field(default_factory=dict)
+
+
+@lru_cache(maxsize=8)
+def _registry(plugins: tuple[str, ...]) -> Registry:
+    """One registry per worker process and plugin list (building one imports the plugins)."""
+    from ..leaves import default_registry
+
+    return default_registry(plugins)
+
+
+def margin_of(oracle: Any) -> float | None:
+    """A criterion's robustness margin, if the oracle reports one (> 0 passed with room, < 0 failed by)."""
+    margin = oracle.get("margin") if isinstance(oracle, Mapping) else getattr(oracle, "margin", None)
+    return float(margin) if isinstance(margin, (int, float)) and not isinstance(margin, bool) else None
+
+
+def row_of(report: Any) -> dict[str, Any]:
+    """The sweep report's row for one run: verdict, why, when, each criterion's verdict (and margin)."""
+    oracles = []
+    for o in report.oracles:
+        item: dict[str, Any] = {"id": o.id, "verdict": o.verdict, "at": o.at, "message": o.message}
+        margin = margin_of(o)
+        if margin is not None:
+            item["margin"] = margin
+        oracles.append(item)
+    margins = [o["margin"] for o in oracles if "margin" in o]
+    failed = next((e for e in report.execute if e.status == "failure"), None)
+    details = [f"{o['id']}: {o['message']}" for o in oracles if o["verdict"] == "fail" and o["message"]]
+    if failed is not None:
+        details.insert(0, f"{failed.id} failed" + (f": {failed.message}" if failed.message else ""))
+    why = "; ".join(details) if report.verdict == "fail" and details else report.message
+    return {
+        "verdict": report.verdict,
+        "message": why,
+        "duration": report.duration,
+        "ticks": report.ticks,
+        "margin": min(margins) if margins else None,
+        "oracles": oracles,
+    }
+
+
+def job_variation(label: str, plugins: Sequence[str], source: str, document: Mapping[str, Any],
+                  system: Any = None) -> VariationOutcome:  # fmt: skip
+    """Run one concrete case; code 0 pass, 1 fail/timeout/error (invalid input raises, as in batch jobs)."""
+    from ..loader import validate
+    from ..run import run
+
+    registry = _registry(tuple(plugins))
+    case = validate(document, source, registry, system)
+    report = run(case, registry=registry)
+    row = row_of(report)
+    line = f"{report.verdict} after {report.duration:g} s" + (f": {row['message']}" if row["message"] else "")
+    return VariationOutcome(label, 0 if report.passed else 1, line, row=row)
+
+
+def job_run_shipped(path: str, plugins: Sequence[str], raw: bytes | None, problems: Sequence[Any],
+                    target: str | None, plot: str | None = None, junit: bool = False, system: Any = None) -> Outcome:  # fmt: skip
+    """``run`` of one file of a batch on a cluster: the file's bytes travel with the task.
+
+    Like :func:`btgen_pytrees.batch.job_run`, whose outputs (report, JUnit, plot)
+    come back as data for the client to write; *problems* are what reading the
+    file found on the client (then *raw* is None).
+    """
+    from ..errors import InvalidTestCase
+    from ..loader import parse_json, validate
+    from ..run import run
+
+    if raw is None:
+        raise InvalidTestCase(problems, path)
+    registry = _registry(tuple(plugins))
+    case = validate(parse_json(raw, path), path, registry, system)
+    report = run(case, registry=registry)
+    outputs: list[tuple[str, str | bytes]] = []
+    if target is not None:
+        outputs = [(f"{target}.report.json", report.to_json()), (f"{target}.junit.xml", report.to_junit())]
+        if plot is not None:
+            from ..run.plot import plot_bytes
+
+            outputs.append((f"{target}.{plot}", plot_bytes(report, case, plot)))
+    line = f"{report.verdict} after {report.duration:g} s" + (f": {report.message}" if report.message else "")
+    word = "" if report.verdict in ("pass", "fail") else report.verdict.upper()
+    return Outcome(path, 0 if report.passed else 1, line, result=word, outputs=outputs,
+                   junit=report.to_junit() if junit else "")  # fmt: skip

@@ -43,10 +43,16 @@ class Counter:
         self.log.append(f"tick {self.k}")
         if self.fail_at == "tick" and self.k == self.fail_tick:
             raise SystemFailure("the simulator ended early")
+        if self.fail_at == "tick-bug" and self.k == self.fail_tick:
+            raise ZeroDivisionError("division by zero")
+        if self.fail_at == "tick-interrupt" and self.k == self.fail_tick:
+            raise KeyboardInterrupt
         self.k += 1
 
     def close(self) -> None:
         self.log.append("close")
+        if self.fail_at == "close":
+            raise OSError("port 8813 still in use")
 
 
 class CounterType:
@@ -85,7 +91,7 @@ def registry() -> Any:
 
 def one_run(data: dict[str, Any], **system_kw: Any) -> tuple[Any, Counter]:
     reg = registry()
-    loaded = btgen_pytrees.load(data, registry=reg)
+    loaded = btgen_pytrees.load(data, registry=reg, system=SystemSpec("counter"))
     system = Counter(loaded.tick, **system_kw)
     root = btgen_pytrees.generate(loaded, registry=reg)
     return run_tree(root, loaded, system=system), system
@@ -112,6 +118,8 @@ def test_life_cycle_order_and_the_systems_time_is_the_runs_clock() -> None:
         (case(entry("H", duration=1)), {"fail_at": "start"}, "error", "cannot start"),
         (case(entry("H", duration=1)), {"fail_at": "publish"}, "error", "lost the connection"),
         (case(entry("H", duration=1)), {"fail_at": "tick"}, "error", "the simulator ended early"),
+        (case(entry("H", duration=1)), {"fail_at": "tick-bug"}, "error", "the 'counter' system raised ZeroDivisionError: division by zero"),
+        (case(entry("H", duration=0.2)), {"fail_at": "close"}, "error", "closing the system failed: the 'counter' system raised OSError: port 8813 still in use"),
     ],
 )
 def test_close_on_every_ending(data: dict[str, Any], kw: dict[str, Any], verdict: str, message: str) -> None:
@@ -130,6 +138,27 @@ def test_close_on_keyboard_interrupt_and_the_interrupt_goes_on() -> None:
         run_tree(root, loaded, system=system)
     assert system.log[-1] == "close" and root.status == Status.INVALID
     assert root.btgen_env.system is None  # the environment is given back as it was
+
+
+def test_close_when_the_system_itself_is_interrupted() -> None:
+    reg = registry()
+    loaded = btgen_pytrees.load(case(entry("H", duration=1)), registry=reg)
+    system = Counter(loaded.tick, fail_at="tick-interrupt")
+    root = btgen_pytrees.generate(loaded, registry=reg)
+    with pytest.raises(KeyboardInterrupt):
+        run_tree(root, loaded, system=system)
+    assert system.log[-1] == "close" and system.log.count("close") == 1 and root.status == Status.INVALID
+
+
+def test_a_system_type_that_cannot_create_gives_verdict_error() -> None:
+    class Refusing(CounterType):
+        def create(self, spec: SystemSpec, case: Any) -> Counter:
+            raise SystemFailure("sumo binary not found")
+
+    reg = registry()
+    reg.register_system(Refusing(), replace=True)
+    report = run(btgen_pytrees.load(case(entry("H"), system=COUNTER), registry=reg), registry=reg)
+    assert (report.verdict, report.message, report.ticks) == ("error", "sumo binary not found", 0)
 
 
 def test_simulated_system_is_the_default_and_keeps_todays_clock() -> None:

@@ -13,7 +13,8 @@ byte. The run ends when the root finishes (its exit condition succeeded, or
 something failed) or after the tick at ``timeout`` (``timeout / tick`` steps);
 the system is not stepped after the last tree tick. ``close`` is always called:
 on pass, fail, timeout, a leaf that raised, a :class:`SystemFailure` (verdict
-``error`` with its message) and Ctrl-C (the ``KeyboardInterrupt`` goes on).
+``error`` with its message; any other exception from the system: ``error`` naming
+it) and Ctrl-C (the ``KeyboardInterrupt`` goes on).
 
 The runner ticks the root's generator directly rather than through
 :class:`py_trees.trees.BehaviourTree` (which walks the whole tree after every
@@ -119,8 +120,10 @@ def run_tree(
                 system.tick()
         else:
             collector.end("timeout", f"no verdict after {case.timeout:g} s")
-    except SystemFailure as exc:  # start, publish or tick
-        collector.end("error", str(exc))
+    except BaseException as exc:  # noqa: BLE001 - start, publish or tick: the run's error, never a traceback
+        if is_interrupt(exc):
+            raise
+        collector.end("error", _system_error(case, exc))
     finally:
         try:
             if root.status == Status.RUNNING or collector.ending is not None and collector.ending[0] == "error":
@@ -134,9 +137,11 @@ def run_tree(
         finally:
             try:
                 system.close()
-            except SystemFailure as exc:
+            except BaseException as exc:  # noqa: BLE001
+                if is_interrupt(exc):
+                    raise
                 if collector.ending is None or collector.ending[0] != "error":
-                    collector.end("error", f"closing the system failed: {exc}")
+                    collector.end("error", f"closing the system failed: {_system_error(case, exc)}")
             finally:
                 env.clock, env.system = saved
     report = collector.report()
@@ -147,7 +152,12 @@ def run_tree(
 def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None) -> Report:
     """Generate *case*'s tree, run it against its system and return the :class:`Report`."""
     registry = registry if registry is not None else default_registry()
-    system = create_system(case, registry)
+    try:
+        system = create_system(case, registry)
+    except BaseException as exc:  # noqa: BLE001 - SystemType.create: the run's error
+        if is_interrupt(exc):
+            raise
+        return Report(case.name, "error", 0.0, 0, _system_error(case, exc))
     try:
         root = generate(case, registry=registry, clock=system)
     except BaseException as exc:  # noqa: BLE001 - a factory raised or returned a non-Behaviour
@@ -155,6 +165,13 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
             raise
         return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}")
     return run_tree(root, case, system=system, trace=trace)
+
+
+def _system_error(case: TestCase, exc: BaseException) -> str:
+    """A system's :class:`SystemFailure` speaks for itself; anything else is named as the system's."""
+    if isinstance(exc, SystemFailure):
+        return str(exc) or f"the {case.system.type!r} system failed"
+    return f"the {case.system.type!r} system raised {_described(exc)}"
 
 
 def _described(exc: BaseException) -> str:

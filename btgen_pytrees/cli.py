@@ -343,6 +343,9 @@ def _system(args: argparse.Namespace) -> SystemSpec | None:
 
 def _replay_check(args: argparse.Namespace) -> None:
     """--replay needs Graphviz, --btlog a .btlog name: found out before the run, not after it."""
+    for option in ("replay", "btlog"):
+        if getattr(args, option) == "-":  # stdout carries the verdict table
+            raise UsageError(f"--{option} -: give a file name (stdout carries the verdict table)")
     if args.replay:
         from .run.replay import require_graphviz
 
@@ -354,21 +357,33 @@ def _replay_check(args: argparse.Namespace) -> None:
         raise UsageError(f"--btlog {args.btlog}: the file name must end in .btlog (Groot2 opens only those)")
 
 
-def _replay_outputs(args: argparse.Namespace, report: Report, case: TestCase, registry: Registry) -> list[tuple[str, bytes]]:
+def _btlog_tree(args: argparse.Namespace, case: TestCase, registry: Registry) -> Any:
+    """For --btlog: the tree to log (generated like the run's), checked before the run: at most 65,535 nodes."""
+    if not args.btlog:
+        return None
+    from .run.btlog import BtlogError, check_btlog
+
+    root = generate(case, registry=registry)
+    try:
+        check_btlog(root)
+    except BtlogError as problem:
+        raise UsageError(f"--btlog {args.btlog}: {problem}") from None
+    return root
+
+
+def _replay_outputs(args: argparse.Namespace, report: Report, case: TestCase, registry: Registry,
+                    logged: Any) -> list[tuple[str, bytes]]:  # fmt: skip
     """The --replay page and the --btlog file, drawn from the run's trace on a tree generated alike."""
     if not (args.replay or args.btlog):
         return []
-    from .run.btlog import BtlogError, btlog_bytes
+    from .run.btlog import btlog_bytes
     from .run.replay import replay_html
 
     outputs = []
     if args.replay:
         outputs.append((args.replay, replay_html(report, case, generate(case, registry=registry), max_depth=args.max_depth)))
     if args.btlog:
-        try:
-            outputs.append((args.btlog, btlog_bytes(report.trace, generate(case, registry=registry))))
-        except BtlogError as problem:
-            raise UsageError(f"--btlog {args.btlog}: {problem}") from None
+        outputs.append((args.btlog, btlog_bytes(report.trace, logged)))
     return outputs
 
 
@@ -419,9 +434,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     if has_variations(data):  # a sweep: every variation (btgen_pytrees.sweep)
         from .sweep.command import run_sweep
 
+        if args.replay or args.btlog:
+            raise UsageError("--replay/--btlog take one case, not a sweep's variations")
+
         return run_sweep(args, data, _system(args))
     registry = _registry(args)
     case = validate(data, args.file, registry=registry, system=_system(args))
+    logged = _btlog_tree(args, case, registry)
     trace = (lambda line: _err(line)) if args.trace else None
     report = run(case, registry=registry, trace=trace)
     outputs: list[tuple[str, str | bytes]] = []
@@ -433,7 +452,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         from .run.plot import plot_bytes, plot_format
 
         outputs.append((args.plot, plot_bytes(report, case, plot_format(args.plot))))
-    outputs += _replay_outputs(args, report, case, registry)
+    outputs += _replay_outputs(args, report, case, registry, logged)
     commit(outputs)  # all together, after everything was made: a failure leaves none
     _print(report.table())
     return EXIT_OK if report.passed else EXIT_FAIL

@@ -88,10 +88,14 @@ def test_cli_btlog(tmp_path: pathlib.Path, capsys: Any, monkeypatch: Any) -> Non
     assert main(["run", FAILING, "--btlog", str(tmp_path / "run.xml")]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and "must end in .btlog" in captured.err and captured.err.count("\n") == 1
+    assert main(["run", FAILING, "--btlog", "-"]) == 2 and main(["run", FAILING, "--replay", "-"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("give a file name") == 2
     monkeypatch.setattr(btlog_module, "MAX_UID", 10)
     too_big = tmp_path / "big.btlog"
     assert main(["run", FAILING, "--btlog", str(too_big)]) == 2
-    assert "at most 10" in capsys.readouterr().err and not too_big.exists()
+    captured = capsys.readouterr()
+    assert "at most 10" in captured.err and captured.out == "" and not too_big.exists()  # before the run
     with pytest.raises(BtlogError):
         logged(FAILING)
 

@@ -46,7 +46,7 @@ from ..render.btcpp import btcpp_document
 from ..render.info import walk
 from .trace import RunTrace
 
-__all__ = ["btlog_bytes", "parse_btlog", "Btlog", "BtlogError", "MAGIC", "MAX_UID"]
+__all__ = ["btlog_bytes", "check_btlog", "parse_btlog", "Btlog", "BtlogError", "MAGIC", "MAX_UID"]
 
 MAGIC = b"BTCPP4-FileLogger2"
 PROTOCOL = 1
@@ -60,11 +60,21 @@ class BtlogError(ValueError):
     """The tree cannot be written as a ``.btlog`` (too many nodes); ``str()`` says why."""
 
 
-def _compact(tree: ET.Element) -> list[ET.Element]:
-    """Rewrite *tree*'s nodes in BT.CPP's compact form, number them, and return them in uid order."""
+def _nodes(tree: ET.Element) -> list[ET.Element]:
     nodes = [e for e in tree.iter() if e is not tree and isinstance(e.tag, str)]
     if len(nodes) > MAX_UID:
         raise BtlogError(f"the tree has {len(nodes):,} BT.CPP nodes; a .btlog numbers nodes with 16 bits (at most {MAX_UID:,})")
+    return nodes
+
+
+def check_btlog(root: py_trees.behaviour.Behaviour) -> None:
+    """Raise :class:`BtlogError` if *root* cannot be logged (before a run, so a run is not wasted)."""
+    _nodes(btcpp_document(root).tree)
+
+
+def _compact(tree: ET.Element) -> list[ET.Element]:
+    """Rewrite *tree*'s nodes in BT.CPP's compact form, number them, and return them in uid order."""
+    nodes = _nodes(tree)
     for uid, element in enumerate(nodes, start=1):
         if element.tag in _GENERIC and "ID" in element.attrib:
             element.tag = element.attrib.pop("ID")

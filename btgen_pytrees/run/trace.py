@@ -45,7 +45,7 @@ import itertools
 import math
 from array import array
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterator
+from typing import Any, Callable, Iterator, NamedTuple
 
 import py_trees
 from py_trees.blackboard import Blackboard
@@ -58,7 +58,12 @@ __all__ = ["RunTrace", "TraceNode", "TraceRecorder", "STATUSES", "DEFAULT_LIMIT"
 STATUSES = ("invalid", "running", "success", "failure")
 """Status names by code; the codes are BehaviorTree.CPP's (IDLE, RUNNING, SUCCESS, FAILURE)."""
 
-_CODE = {Status.INVALID: 0, Status.RUNNING: 1, Status.SUCCESS: 2, Status.FAILURE: 3}
+_RUNNING, _SUCCESS, _FAILURE = Status.RUNNING, Status.SUCCESS, Status.FAILURE
+
+
+def _code(status: Status) -> int:
+    """The status code, by identity (hashing an Enum member runs Python code: too slow per node per tick)."""
+    return 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
 
 DEFAULT_LIMIT = 2_000_000
 """Changes (status and signal) a trace keeps before it stops recording."""
@@ -66,9 +71,8 @@ DEFAULT_LIMIT = 2_000_000
 _SCALARS = (bool, int, float, str, type(None))
 
 
-@dataclass(frozen=True)
-class TraceNode:
-    """One node of the traced tree.
+class TraceNode(NamedTuple):
+    """One node of the traced tree (a named tuple: a 100k-entry tree has 400k of them).
 
     Attributes:
         name: the behaviour's name
@@ -192,7 +196,7 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
                  limit: int = DEFAULT_LIMIT):  # fmt: skip
         super().__init__(full=False)
         self._behaviours: list[py_trees.behaviour.Behaviour] = []
-        nodes: list[TraceNode] = []
+        rows: list[tuple[str, str, str, int, int]] = []
         index: dict[int, int] = {}
         stack: list[int] = []  # open subtrees, to fill in each node's end
         ends: list[int] = []
@@ -206,14 +210,13 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
             self._behaviours.append(node)
             parent = index.get(id(node.parent), -1) if node is not root else -1
             entry = getattr(node, "btgen_entry", None) or getattr(node, "btgen_criterion", None)
-            nodes.append(TraceNode(node.name, role(node), entry.id if entry is not None else "", parent, depth, 0))
+            rows.append((node.name, role(node), entry.id if entry is not None else "", parent, depth))
         for i in stack:
-            ends[i] = len(nodes)
-        self.trace = RunTrace([TraceNode(n.name, n.role, n.id, n.parent, n.depth, e) for n, e in zip(nodes, ends)],
-                              limit=limit)  # fmt: skip
+            ends[i] = len(rows)
+        self.trace = RunTrace([TraceNode(*row, end) for row, end in zip(rows, ends)], limit=limit)
         self._index = index
         self._ends = ends
-        self._last = bytearray(len(nodes))
+        self._last = bytearray(len(rows))
         self._running: dict[int, py_trees.behaviour.Behaviour] = {}
         self._walks: list[int] = []
         env = getattr(root, "btgen_env", None)
@@ -240,7 +243,7 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         last = self._last[i]
         if last >= 2 and self._ends[i] > i + 1:  # a finished composite runs again: its children were reset
             self._walks.append(i)
-        code = _CODE[behaviour.status]
+        code = _code(behaviour.status)
         if code != last:
             self._note(i, code)
 
@@ -253,17 +256,17 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         """
         self.trace.times.append(self._now())
         ends = self._ends
-        for i, node in list(self._running.items()):
-            code = _CODE[node.status]
-            if code != 1:
-                self._note(i, code)
-                if code == 0 and ends[i] > i + 1:
-                    self._walks.append(i)
+        halted = [(i, node) for i, node in self._running.items() if node.status is not _RUNNING]
+        for i, node in halted:
+            code = _code(node.status)
+            self._note(i, code)
+            if code == 0 and ends[i] > i + 1:
+                self._walks.append(i)
         reach = -1
         behaviours = self._behaviours
         for i in sorted(self._walks):
             for j in range(max(i, reach), ends[i]):
-                code = _CODE[behaviours[j].status]
+                code = _code(behaviours[j].status)
                 if code != self._last[j]:
                     self._note(j, code)
             reach = max(reach, ends[i])

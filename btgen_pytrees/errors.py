@@ -33,7 +33,7 @@ MAX_LINE = 400
 """Any printed line (a problem with its file name and pointer, a summary row) is cut to this length."""
 
 UNSAFE = re.compile(
-    "[\x00-\x1f\x7f-\x9f\u061c\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb\ud800-\udfff]"
+    "[\x00-\x1f\x7f-\x9f\u061c\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb\ufffe\uffff\ud800-\udfff]"
 )
 """What a terminal could act on or hide text with: C0, DEL, C1 (ESC sequences, cursor moves), bidi
 overrides and isolates (text shown in another order than it is), zero-width characters, line and

@@ -44,7 +44,7 @@ from .validation import SchemaValidator
 from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemInfo, SystemSpec
 
-__all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS"]
+__all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE"]
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
 """Largest test-case file accepted (16 MiB); larger files are refused before reading."""
@@ -195,15 +195,28 @@ def _scalar_problem(path: tuple[PathPart, ...], value: Any) -> Problem | None:
         if bad:
             return Problem(path, f"not valid Unicode: lone surrogate {ascii(bad.group())} at character {bad.start()}", "json")
     elif isinstance(value, int) and not isinstance(value, bool):
-        try:
-            float(value)
-        except OverflowError:
-            return Problem(path, f"number too large ({value.bit_length()} bits; the limit is about 1.8e308)", "limit")
+        if not -MAX_MAGNITUDE <= value <= MAX_MAGNITUDE:
+            try:
+                shown = f"{float(value):.3g}"
+            except OverflowError:
+                shown = f"{value.bit_length()} bits"
+            return Problem(path, f"number too large ({shown}; the limit is ±{MAX_MAGNITUDE:g})", "limit")
+    elif isinstance(value, float):
+        if not math.isfinite(value):  # 1e999 parses as inf
+            return Problem(path, f"number too large (beyond float range, read as {value}; the limit is ±{MAX_MAGNITUDE:g})", "limit")
+        if not -MAX_MAGNITUDE <= value <= MAX_MAGNITUDE:
+            return Problem(path, f"number too large ({value:.3g}; the limit is ±{MAX_MAGNITUDE:g})", "limit")
     return None
 
 
-_PLAIN = (float, bool, type(None))
-_BIG = 2**1000  # below this, float() cannot overflow
+MAX_MAGNITUDE = 1e300
+"""Largest magnitude of any number in a test case. Far beyond any physical quantity, and far
+enough below float's ±1.8e308 that what a run computes from such numbers stays finite: a ramp
+between -1e300 and 1e300 (their difference), an integer signal times a fraction, a report's
+values. ``1e999`` parses as infinity and is refused too."""
+
+_PLAIN = (bool, type(None))
+_BIG = int(MAX_MAGNITUDE)
 
 
 def _suspicious(data: Any) -> bool:
@@ -231,7 +244,10 @@ def _suspicious(data: Any) -> bool:
             if kind is str:
                 strings.append(item)
             elif kind is int:
-                if not -_BIG < item < _BIG:
+                if not -_BIG <= item <= _BIG:
+                    return True
+            elif kind is float:
+                if not -MAX_MAGNITUDE <= item <= MAX_MAGNITUDE:  # NaN fails every comparison
                     return True
             elif kind is dict or kind is list:
                 stack.append((item, depth + 1))
@@ -263,7 +279,7 @@ def _value_problems(data: Any) -> Iterator[Problem]:
                 continue
             if isinstance(item, (dict, list)):
                 stack.append(((*path, key), item))
-            elif isinstance(item, (str, int)):
+            elif isinstance(item, (str, int, float)):
                 problem = _scalar_problem((*path, key), item)
                 if problem is not None:
                     yield problem

@@ -40,7 +40,7 @@ def tree_data(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
 
 
 def _json(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:
-    return json.dumps(tree_data(root), indent=2, ensure_ascii=False) + "\n"
+    return json.dumps(tree_data(root), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
 
 def _matrix(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:

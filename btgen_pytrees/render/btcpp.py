@@ -59,6 +59,7 @@ import py_trees
 from py_trees.composites import Composite, Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
+from ..errors import xml_safe
 from ..leaves.wiring import Completion, OrMember, RunStart, Trigger
 from .info import is_selected, policy_name, selected
 
@@ -99,7 +100,7 @@ def port_value(value: Any) -> str:
     """A param as a BT.CPP port string: strings as written, anything else as JSON (``true``, ``2.5``, ``[1,2]``)."""
     if isinstance(value, str):
         return value
-    return json.dumps(value, ensure_ascii=False, separators=(",", ":"))
+    return json.dumps(value, ensure_ascii=False, separators=(",", ":"), allow_nan=False)
 
 
 def port_name(key: str) -> str:
@@ -340,7 +341,8 @@ def btcpp_xml(root: py_trees.behaviour.Behaviour) -> str:
     """*root* as BehaviorTree.CPP v4 XML text (deterministic; see the module notes)."""
     document = btcpp_document(root).document
     ET.indent(document, space="  ")
-    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(document, encoding="unicode") + "\n"
+    # characters XML forbids can only sit in names and params: escaped, the document stays well-formed
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + xml_safe(ET.tostring(document, encoding="unicode")) + "\n"
 
 
 def format_btcpp(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:

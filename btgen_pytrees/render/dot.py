@@ -42,6 +42,7 @@ import pydot
 from py_trees.composites import Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
+from ..errors import printable, xml_safe
 from ..leaves.wiring import Trigger
 from .info import annotation, is_selected, role, type_name, walk
 
@@ -111,6 +112,7 @@ def _quoted(text: str) -> str:
     user's text as its own escapes; newlines become ``\\n`` (a centred line
     break). pydot leaves values that are already quoted alone.
     """
+    text = printable(text, keep_newlines=True)  # control characters would break Graphviz or its SVG
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
 
@@ -267,7 +269,7 @@ def format_dot(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth:
 
 
 def format_svg(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> str:
-    return graphviz_render(dot_source(root, max_depth=max_depth), "svg").decode("utf-8")
+    return xml_safe(graphviz_render(dot_source(root, max_depth=max_depth), "svg").decode("utf-8"))
 
 
 def format_png(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> bytes:

@@ -36,6 +36,7 @@ import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from ..errors import printable, shorten, xml_safe
 from ..model import TestCase
 from .report import Report
 
@@ -125,16 +126,16 @@ def timeline_rows(report: Report, case: TestCase) -> list[Row]:
         end = result.end if result.end is not None or result.start is None else report.duration
         failed = result.status == "failure"
         rows.append(Row(
-            "execute", result.id, result.kind, f"{result.id}  {entry.action}", result.start, end, result.status,
+            "execute", result.id, result.kind, printable(f"{result.id}  {entry.action}"), result.start, end, result.status,
             waits_for=entry.after if len(entry.after) > 1 else (), join=entry.join if len(entry.after) > 1 else "",
-            after=entry.after, failed_at=result.end if failed else None, message=result.message if failed else ""))  # fmt: skip
+            after=entry.after, failed_at=result.end if failed else None, message=printable(shorten(result.message)) if failed else ""))  # fmt: skip
     criteria = {c.id: c for c in case.criteria}
     for oracle in report.oracles:
         start, end = _criterion_span(oracle.type, criteria[oracle.id], oracle.at, oracle.verdict, report.duration)
         failed = oracle.verdict == "fail"
         rows.append(Row(
-            "oracle", oracle.id, oracle.type, f"{oracle.id}  {oracle.type}: {oracle.expect}", start, end,
-            oracle.verdict, failed_at=oracle.at if failed else None, message=oracle.message if failed else ""))  # fmt: skip
+            "oracle", oracle.id, oracle.type, printable(f"{oracle.id}  {oracle.type}: {oracle.expect}"), start, end,
+            oracle.verdict, failed_at=oracle.at if failed else None, message=printable(shorten(oracle.message)) if failed else ""))  # fmt: skip
     return rows
 
 
@@ -155,10 +156,35 @@ def _criterion_span(kind: str, criterion: Any, at: float | None, verdict: str, d
 
 def plot_figure(report: Report, case: TestCase) -> Figure:
     """The run picture as a matplotlib Figure (not attached to pyplot, so no GUI backend is involved)."""
+    import matplotlib
+
+    with matplotlib.rc_context({"text.parse_math": False}):  # a '$' in a name is a dollar sign, not math
+        return _plot_figure(report, case)
+
+
+def _capped(rows: list[Row], limit: int) -> tuple[list[Row], int]:
+    """At most *limit* rows: every failed row first (up to the limit), then the others in order."""
+    if len(rows) <= limit:
+        return rows, 0
+    keep = {i for i, row in enumerate(rows) if row.failed_at is not None}
+    keep = set(sorted(keep)[:limit])
+    for i in range(len(rows)):
+        if len(keep) >= limit:
+            break
+        keep.add(i)
+    return [row for i, row in enumerate(rows) if i in keep], len(rows) - len(keep)
+
+
+def _plot_figure(report: Report, case: TestCase) -> Figure:
     from matplotlib.figure import Figure
 
-    rows = timeline_rows(report, case)
+    rows, hidden = _capped(timeline_rows(report, case), MAX_ROWS)
     samples = _signal_series(report)
+    if len(samples) > MAX_SIGNALS:
+        hidden_signals = len(samples) - MAX_SIGNALS
+        samples = dict(list(samples.items())[:MAX_SIGNALS])
+    else:
+        hidden_signals = 0
     height_rows = max(1.6, 0.32 * len(rows) + 0.9)
     height_signals = 2.4 if samples else 0.0
     fig = Figure(figsize=(11, height_rows + height_signals + 1.1), layout="constrained")
@@ -179,9 +205,23 @@ def plot_figure(report: Report, case: TestCase) -> Figure:
     top.set_xlim(-0.02 * span, span * 1.04)
     verdict = f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({report.ticks} ticks)"
     colour = COLOURS["pass"] if report.passed else COLOURS["fail"]
-    subtitle = "\n".join(textwrap.wrap(report.message, 120)) if report.message else ""
+    subtitle = "\n".join(textwrap.wrap(printable(shorten(report.message, 600)), 120)) if report.message else ""
+    if hidden or hidden_signals:
+        left_out = [f"{hidden} of {hidden + len(rows)} rows" if hidden else "",
+                    f"{hidden_signals} of {hidden_signals + len(samples)} signals" if hidden_signals else ""]  # fmt: skip
+        subtitle += ("\n" if subtitle else "") + (
+            f"not drawn: {' and '.join(w for w in left_out if w)} (limits {MAX_ROWS} rows, {MAX_SIGNALS} signals;"
+            " failures are always drawn; the JSON report has everything)")
+    verdict = printable(verdict)
     fig.suptitle(verdict + ("\n" + subtitle if subtitle else ""), color=colour, fontsize=12, fontweight="bold")
     return fig
+
+
+MAX_ROWS = 200
+"""Most timeline rows drawn (entries and criteria); a 20k-entry run would need a 6,000-inch figure."""
+
+MAX_SIGNALS = 20
+"""Most signal curves drawn."""
 
 
 def _draw_rows(ax: Axes, rows: list[Row], span: float) -> None:
@@ -321,21 +361,24 @@ def plot_bytes(report: Report, case: TestCase, fmt: str) -> bytes:
     figure = plot_figure(report, case)
     buffer = io.BytesIO()
     # a fixed hash salt and no date make the SVG the same bytes on every run; text stays text
-    with matplotlib.rc_context({"svg.hashsalt": "btgen_pytrees", "svg.fonttype": "none"}):
+    with matplotlib.rc_context({"svg.hashsalt": "btgen_pytrees", "svg.fonttype": "none", "text.parse_math": False}):
         if fmt == "png":
             figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
         else:
             figure.savefig(buffer, format="svg", metadata={"Date": None})
     data = buffer.getvalue()
-    return _html_page(report, data.decode("utf-8")) if fmt == "html" else data
+    if fmt == "png":
+        return data
+    svg = xml_safe(data.decode("utf-8"))  # well-formed whatever a name held
+    return _html_page(report, svg) if fmt == "html" else svg.encode("utf-8")
 
 
 def _html_page(report: Report, svg: str) -> bytes:
     body = svg[svg.index("<svg"):]
     page = (
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-        f"<title>{html.escape(report.test)}: {report.verdict}</title>\n</head>\n<body>\n"
-        f"<pre>{html.escape(report.table())}</pre>\n{body}\n</body>\n</html>\n"
+        f"<title>{html.escape(printable(report.test))}: {report.verdict}</title>\n</head>\n<body>\n"
+        f"<pre>{html.escape(printable(report.table(), keep_newlines=True))}</pre>\n{body}\n</body>\n</html>\n"
     )
     return page.encode("utf-8")
 

@@ -10,6 +10,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
+from ..errors import xml_safe
+
 if TYPE_CHECKING:  # pragma: no cover
     from .trace import RunTrace
 
@@ -84,7 +86,7 @@ class Report:
         return data
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False) + "\n"
+        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
     def table(self) -> str:
         """A plain-text verdict table: one row per criterion, then the execute subtree and the verdict."""
@@ -139,7 +141,8 @@ class Report:
         root = ET.Element("testsuites")
         root.append(suite)
         ET.indent(root)
-        return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+        # characters XML forbids can only sit in names and messages: escaped, the document stays well-formed
+        return xml_safe(ET.tostring(root, encoding="unicode", xml_declaration=True)) + "\n"
 
 
 def _time(t: float | None) -> str:

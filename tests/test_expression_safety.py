@@ -215,11 +215,15 @@ def test_longest_signal_product_is_quick() -> None:
 
 
 def test_largest_integer_signal_the_loader_accepts() -> None:
-    ok = case(entry("A"), signals={"s": 2**1023})
+    """Numbers are bounded by MAX_MAGNITUDE (1e300, issue 13: 2**1023 overflowed a ramp), integers exactly."""
+    from btgen_pytrees.loader import MAX_MAGNITUDE
+
+    ok = case(entry("A"), signals={"s": int(MAX_MAGNITUDE)})
     btgen_pytrees.load(ok)
-    with pytest.raises(InvalidTestCase) as info:
-        btgen_pytrees.load(case(entry("A"), signals={"s": 2**1024}))
-    assert [(p.pointer, p.cause) for p in info.value.problems] == [("/signals/s", "limit")]
+    for too_big in (int(MAX_MAGNITUDE) + 1, 2**1023, 2**1024):
+        with pytest.raises(InvalidTestCase) as info:
+            btgen_pytrees.load(case(entry("A"), signals={"s": too_big}))
+        assert [(p.pointer, p.cause) for p in info.value.problems] == [("/signals/s", "limit")]
 
 
 @pytest.mark.parametrize(

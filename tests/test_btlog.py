@@ -131,3 +131,10 @@ def test_a_run_that_never_ticked_logs_the_tree_alone(tmp_path: pathlib.Path) -> 
     assert report.verdict == "error" and report.trace is None
     log = parse_btlog(btlog_bytes(None, btgen_pytrees.generate(loaded, registry=registry)))
     assert log.transitions == [] and "B1" in log.names().values()
+
+
+def test_a_sweep_is_refused(tmp_path: pathlib.Path, capsys: Any) -> None:
+    sweep = str(ROOT / "examples" / "fig1_sweep.json")
+    for option, name in (("--btlog", "x.btlog"), ("--replay", "x.html")):
+        assert main(["run", sweep, option, str(tmp_path / name)]) == 2
+        assert "not a sweep" in capsys.readouterr().err and not (tmp_path / name).exists()

@@ -232,3 +232,23 @@ def test_a_host_attaches_the_recorder_to_its_own_tree(fig1_path: str) -> None:
     assert recorder.trace.times == expected.times
     assert list(recorder.trace.transitions()) == list(expected.transitions())
     assert {n: recorder.trace.series(n) for n in recorder.trace.signals} == {n: expected.series(n) for n in expected.signals}
+
+
+def test_a_signal_replacing_a_deleted_one_is_found_on_its_tick(fig1_path: str) -> None:
+    """The blackboard keeps its size when one key goes and another comes: the new signal is still found."""
+    loaded = btgen_pytrees.load(fig1_path)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    prefix = root.btgen_env.namespace + "/signals/"
+    recorder = TraceRecorder(root)
+    root.setup_with_descendants()
+    for k in range(6):
+        clock.set(round(k * 0.1, 9))
+        recorder.initialise()
+        for node in root.tick():
+            recorder.run(node)
+        if k == 4:  # a host swaps one key for another between two looks
+            del Blackboard.storage[prefix + "mode"]
+            Blackboard.storage[prefix + "extra"] = 7
+        recorder.finalise()
+    assert recorder.trace.series("extra") == [(0.4, 7)]

@@ -19,7 +19,9 @@ time ``times[k]``):
 * **signals** - every key under the tree's ``<ns>/signals/`` on the blackboard,
   whoever wrote it (an action, ``until`` only reads, a system's published
   signals), sampled *after* each tick, recorded only when its value changed
-  (``1`` and ``1.0`` and ``True`` count as different values).
+  (``1`` and ``1.0`` and ``True`` count as different values). New keys are
+  found when the blackboard grows (a dict keeps insertion order, so they are
+  at its end); after a signal key went away every key is looked at again.
 
 What is not recorded: the halt the runner sends after the last tick of a run
 that timed out or erred (the trace shows the tree as it was on its last tick).
@@ -313,6 +315,8 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         if self._prefix is None:
             return
         storage = Blackboard.storage
+        if any(key not in storage for key in self._keys):  # a key went away (a host reset the namespace)
+            self._storage_size = -1
         if len(storage) != self._storage_size:
             self._discover(storage)
         missing = object()

@@ -411,6 +411,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--profile", type=_profile_spec, metavar="SHAPE:N",
                         help="instead: cProfile load, generate and run of one case; print the hot spots")  # fmt: skip
     parser.add_argument("--profile-steps", default=",".join(hotspots.STEPS), help="with --profile: steps to profile")
+    parser.add_argument("--sumo", action="store_true",
+                        help="instead: the SUMO examples' speed-up and time shares (benchmarks/sumo.py; needs the sumo extra)")  # fmt: skip
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
     if args.sizes is None:
@@ -484,6 +486,10 @@ def _progress(text: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.sumo:
+        from benchmarks import sumo
+
+        return sumo.main([])
     if args.profile:
         shape, n = args.profile
         steps = tuple(s.strip() for s in args.profile_steps.split(",") if s.strip())

@@ -167,3 +167,347 @@ def test_the_example_network_is_what_its_documented_command_makes(tmp_path: path
         return text.split("-->", 1)[1].split("\n")
 
     assert body((tmp_path / "road.net.xml").read_text(encoding="utf-8")) == body(NET)
+
+
+# ---------------------------------------------------------------------------
+# loading SUMO cases (the loader asks the sumo system type)
+
+import json  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+
+import btgen_pytrees  # noqa: E402
+from btgen_pytrees.run import run  # noqa: E402
+
+from helpers import crit, entry  # noqa: E402
+
+SCENARIO = """<routes>
+    <vType id="car" length="5" minGap="2.5" maxSpeed="30" accel="2.6" decel="4.5" emergencyDecel="9" sigma="0"
+           lcSpeedGain="0" lcKeepRight="0"/>
+    <route id="east" edges="A0B0 B0C0"/>
+    <route id="short" edges="B0C0"/>
+    <vehicle id="ego" type="car" route="east" depart="0" departPos="20" departLane="0" departSpeed="10"/>
+    <vehicle id="other" type="car" route="east" depart="0" departPos="20" departLane="1" departSpeed="10"/>
+    <vehicle id="late" type="car" route="east" depart="100" departLane="0"/>
+</routes>
+"""
+
+
+def sumo_case(tmp_path: pathlib.Path, *entries: dict[str, Any], criteria: list[dict[str, Any]] | None = None,
+              routes: str = SCENARIO, options: list[str] | None = None, timeout: float = 20,
+              name: str = "t") -> pathlib.Path:  # fmt: skip
+    """A case file over the example road with *routes*; returns its path."""
+    scenario_dir(tmp_path, routes=routes)
+    data: dict[str, Any] = {"name": name, "tick": 0.1, "timeout": timeout,
+                            "system": {"type": "sumo", "config": "s.sumocfg", "options": options or []},
+                            "execute": list(entries)}  # fmt: skip
+    if criteria is not None:
+        data["oracle"] = {"criteria": criteria}
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(data), encoding="utf-8")
+    return path
+
+
+def problems_of(path: pathlib.Path) -> list[str]:
+    with pytest.raises(btgen_pytrees.InvalidTestCase) as info:
+        btgen_pytrees.load(path)
+    return [f"{p.pointer}: {p.message}" for p in info.value.problems]
+
+
+def cli(*args: str, cwd: pathlib.Path = ROOT) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "btgen_pytrees", *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=300, check=False)  # fmt: skip
+
+
+@pytest.fixture
+def with_libsumo(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Loading checks that libsumo is installed; these tests only read files, so pretend it is."""
+    monkeypatch.setattr("btgen_pytrees.systems.sumo.libsumo_installed", lambda: True)
+
+
+def test_unknown_vehicles_signals_routes_and_lights_are_validation_errors(tmp_path: pathlib.Path, with_libsumo: None) -> None:
+    path = sumo_case(
+        tmp_path,
+        entry("B1", action="sumo.speed", vehicle="egoo", to=5),
+        entry("B2", action="sumo.spawn", vehicle="ego", route="esat", lane=0),
+        entry("B3", action="sumo.spawn", vehicle="new", route="east", lane=2),
+        entry("B4", action="sumo.signal", tls="B0x", state="rrrr"),
+        entry("B5", action="sumo.signal", tls="B0", state="rr"),
+        entry("B6", action="sumo.lane", vehicle="ego", lane=5),
+        entry("B7", action="set", signal="ego.speed", value=3),
+        criteria=[crit("R1", "record", "ego.sped > 0")],
+    )
+    assert problems_of(path) == [
+        "/execute/0/params/vehicle: unknown vehicle 'egoo' (did you mean 'ego'?)",
+        "/execute/1/params/route: unknown route 'esat' (did you mean 'east'?)",
+        "/execute/1/params/vehicle: vehicle 'ego' is already declared in the route files",
+        "/execute/2/params/lane: lane 2 does not exist: edge 'A0B0' has 2 lane(s)",
+        "/execute/3/params/tls: unknown traffic light 'B0x' (did you mean 'B0'?)",
+        "/execute/4/params/state: traffic light 'B0' controls 4 links; the state has 2 letters",
+        "/execute/5/params/lane: lane 5 does not exist: no edge of the network has more than 2 lane(s)",
+        "/execute/6/params/signal: signal 'ego.speed' belongs to the 'sumo' system and is read-only for the test; "
+        "use the action 'sumo.speed' instead",
+    ]
+
+
+def test_an_unknown_attribute_is_an_unknown_signal_with_a_hint(tmp_path: pathlib.Path, with_libsumo: None) -> None:
+    path = sumo_case(tmp_path, entry("C1", action="wait"),
+                     criteria=[crit("R1", "record", "ego.sped > 0 && new.speed >= 0 && sim.collisions == 0")])
+    assert problems_of(path) == [
+        "/oracle/criteria/0/expect: unknown signal 'ego.sped' in 'ego.sped > 0 && new.speed >= 0 && sim.collisions == 0' "
+        "(did you mean 'ego.speed'?)",
+        "/oracle/criteria/0/expect: unknown signal 'new.speed' in 'ego.sped > 0 && new.speed >= 0 && sim.collisions == 0' "
+        "(did you mean 'ego.speed'?)",
+    ]
+
+
+def test_options_outside_the_allow_list_and_unsafe_configurations_exit_2_with_the_json_path(
+        tmp_path: pathlib.Path) -> None:  # fmt: skip
+    path = sumo_case(tmp_path, entry("C1", action="wait"), options=["--seed", "3", "--fcd-output", "f.xml"])
+    (tmp_path / "s.sumocfg").write_text(
+        "<configuration>\n<input><net-file value='road.net.xml'/></input>\n"
+        "<output><tripinfo-output value='/tmp/x.xml'/></output>\n</configuration>", encoding="utf-8")
+    done = cli("run", str(path))
+    assert done.returncode == 2, done
+    assert f"{path}: /system/options/2: option '--fcd-output' is not allowed" in done.stderr
+    assert f"{path}: /system/config: s.sumocfg:3: option 'tripinfo-output' is not allowed" in done.stderr
+    assert "Traceback" not in done.stderr and done.stdout == ""
+
+
+def test_without_libsumo_a_sumo_case_says_how_to_install_it(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr("btgen_pytrees.systems.sumo.libsumo_installed", lambda: False)
+    path = sumo_case(tmp_path, entry("C1", action="wait"))
+    assert problems_of(path) == [
+        "/system/type: the 'sumo' system needs libsumo, which is not installed: pip install -e '.[sumo]'"]
+
+
+# ---------------------------------------------------------------------------
+# running the simulator
+
+
+def final_values(report: Any, criterion: str) -> dict[str, Any]:
+    (oracle,) = [o for o in report.oracles if o.id == criterion]
+    return oracle.values
+
+
+def sumo_processes() -> set[int]:
+    """Pids of processes called sumo* (libsumo starts none; the diagnosis of a failed load may)."""
+    found = set()
+    for pid in os.listdir("/proc") if os.path.isdir("/proc") else ():
+        try:
+            with open(f"/proc/{pid}/comm", encoding="utf-8") as fh:
+                if fh.read().startswith("sumo"):
+                    found.add(int(pid))
+        except (OSError, ValueError):
+            continue
+    return found
+
+
+@needs_sumo
+def test_the_examples_pass_and_fail_as_described_from_the_command_line() -> None:
+    before = sumo_processes()
+    done = cli("run", "examples/sumo/acc_hard_brake.json")
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "acc_hard_brake: PASS after 9.2 s" in done.stdout
+    done = cli("run", "examples/sumo/cut_in.json")
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "R1         record  sim.collisions == 0   fail          4   sim.collisions == 0 is false at 4 s (sim.collisions=1)" in done.stdout
+    assert "cut_in: FAIL after 4 s (41 ticks) - R1 failed" in done.stdout
+    assert done.stderr == ""
+    assert sumo_processes() <= before
+
+
+@needs_sumo
+def test_batch_mode_runs_sumo_cases_in_worker_processes() -> None:
+    done = cli("run", "examples/sumo/", "--jobs", "2")
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "examples/sumo/acc_hard_brake.json  ok       pass after 9.2 s" in done.stdout
+    assert "examples/sumo/cut_in.json          FAIL     fail after 4 s: R1 failed" in done.stdout
+
+
+@needs_sumo
+def test_acc_example_keeps_its_distance_and_runs_the_same_twice() -> None:
+    case = btgen_pytrees.load(EXAMPLES / "acc_hard_brake.json")
+    first, second = run(case), run(case)
+    assert first.verdict == "pass" and first.to_json() == second.to_json()
+    (gap,) = [o for o in first.oracles if o.id == "R2"]
+    assert [o.verdict for o in first.oracles] == ["pass", "pass", "pass"]
+    seen = [values["ego.gap"] for _, values in gap.samples]
+    assert 10 <= min(seen) < 20  # the ACC closes in to about 18 m behind the lead when it is nearly stopped
+    assert final_values(first, "F1")["lead.speed"] == 0
+
+
+@needs_sumo
+def test_signals_time_and_the_speed_ramp(tmp_path: pathlib.Path) -> None:
+    path = sumo_case(
+        tmp_path,
+        entry("B1", action="sumo.speed", vehicle="ego", to=14, duration=2),
+        entry("C1", action="wait", duration=3),
+        criteria=[
+            crit("F0", "final", "ego.present && ego.speed == 10 && ego.distance == 0 && ego.lane == 0 && ego.x == 20",
+                 at=0),
+            crit("F1", "final", "abs(ego.speed - 12) < 1e-6 && ego.accel > 0", at=1),
+            crit("F2", "final", "abs(ego.speed - 14) < 1e-6 && ego.lane == 0 && other.lane == 1", at=2.5),
+            crit("F3", "final", "!late.present && late.lane == -1 && !late.collided && sim.vehicles == 2 && "
+                 "sim.collisions == 0 && ego.gap > 1e308 && ego.ttc > 1e308 && ego.lateral == 0", at=2.5),  # fmt: skip
+        ],
+    )
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "pass", report.message
+    assert final_values(report, "F0")["ego.x"] == 20  # departPos, the front bumper, on a road that starts at x = 0
+    assert final_values(report, "F2")["other.lane"] == 1
+    assert [o.at for o in report.oracles] == [0, 1, 2.5, 2.5]
+
+
+@needs_sumo
+def test_a_vehicle_that_has_not_departed_has_no_motion_signals_and_actions_on_it_fail(tmp_path: pathlib.Path) -> None:
+    path = sumo_case(
+        tmp_path,
+        entry("B1", action="sumo.speed", vehicle="late", to=5),
+        criteria=[crit("R1", "record", "late.speed >= 0")],
+    )
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "fail"
+    assert report.execute[0].message == "vehicle 'late' is not in the network (it departs at '100')"
+    (r1,) = report.oracles
+    assert r1.message == "signal 'late.speed' has no value at 0 s"
+
+
+@needs_sumo
+def test_lane_change_release_spawn_and_signal(tmp_path: pathlib.Path) -> None:
+    routes = SCENARIO.replace('departPos="20" departLane="1"', 'departPos="200" departLane="1"')
+    path = sumo_case(
+        tmp_path,
+        entry("B1", action="sumo.lane", vehicle="ego", lane=1, timeout=3),
+        entry("B2", ["B1"], action="sumo.spawn", vehicle="new", route="short", lane=0, speed=5),
+        entry("B3", ["B2"], action="sumo.speed", vehicle="new", to=0, duration=1),
+        entry("B4", ["B3"], action="sumo.release", vehicle="new"),
+        entry("C4", ["B4"], action="until", expect="new.speed > 2", timeout=5),
+        entry("B5", action="sumo.signal", tls="B0", state="rrrr"),
+        criteria=[
+            crit("F1", "final", "ego.lane == 1 && new.present && new.lane == 0 && new.speed > 2 && sim.vehicles == 3"),
+        ],
+        routes=routes,
+    )
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "pass", (report.message, report.execute)
+    b1, b2, b3, b4, c4, b5 = report.execute
+    assert (b1.status, b1.end) == ("success", 0.1)  # asked at 0, changed in SUMO's step at 0.1
+    assert (b2.start, b2.end) == (0.1, 0.2)  # inserted in the next step
+    assert b3.end == pytest.approx(1.2) and b4.end == pytest.approx(1.2)
+    assert b5.status == "success"
+
+
+@needs_sumo
+def test_a_red_light_set_by_the_test_stops_the_traffic(tmp_path: pathlib.Path) -> None:
+    path = sumo_case(
+        tmp_path,
+        entry("B1", action="sumo.signal", tls="B0", state="rrrr"),
+        entry("C1", ["B1"], action="until", expect="ego.speed < 0.1 && ego.distance > 100", timeout=60),
+        criteria=[crit("F1", "final", "ego.x < 500 && ego.x > 450")],
+        timeout=70,
+    )
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "pass", report.message
+
+
+@needs_sumo
+def test_an_unsafe_speed_provokes_a_collision_a_safe_one_does_not(tmp_path: pathlib.Path) -> None:
+    routes = SCENARIO.replace('departPos="20" departLane="1"', 'departPos="60" departLane="0"')
+    for safe, verdict in ((True, "pass"), (False, "fail")):
+        path = sumo_case(
+            tmp_path,
+            entry("B1", action="sumo.speed", vehicle="other", to=0, duration=0),
+            entry("B2", action="sumo.speed", vehicle="ego", to=25, duration=2, safe=safe),
+            entry("C1", action="wait", duration=8),
+            criteria=[crit("R1", "record", "sim.collisions == 0 && !ego.collided")],
+            routes=routes,
+        )
+        report = run(btgen_pytrees.load(path))
+        assert report.verdict == verdict, (safe, report.message)
+    assert report.oracles[0].values == {"sim.collisions": 1, "ego.collided": True}
+
+
+@needs_sumo
+def test_when_every_vehicle_has_arrived_the_run_ends_with_a_clear_error(tmp_path: pathlib.Path) -> None:
+    routes = SCENARIO.replace('route="east" depart="0" departPos="20" departLane="0"', 'route="short" depart="0" departPos="480" departLane="0"')
+    routes = routes.replace('<vehicle id="other"', '<!-- ').replace('departSpeed="10"/>\n    <vehicle id="late"', '-->\n    <vehicle id="late"')
+    routes = routes.replace('<vehicle id="late" type="car" route="east" depart="100" departLane="0"/>', "")
+    path = sumo_case(tmp_path, entry("C1", action="wait", duration=30), timeout=60, routes=routes)
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "error"
+    assert report.message.startswith("the SUMO simulation has no vehicles left at ")
+    assert report.message.endswith(" s (every vehicle has arrived) while the test is still running")
+
+
+@needs_sumo
+def test_a_spawn_that_cannot_be_inserted_fails_after_its_timeout(tmp_path: pathlib.Path) -> None:
+    path = sumo_case(
+        tmp_path,
+        entry("B0", action="sumo.speed", vehicle="ego", to=0, safe=False),  # stops at once, at about 20 m
+        entry("B1", action="sumo.spawn", vehicle="new", route="east", lane=0, position=20, timeout=1),
+    )
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "fail"
+    assert report.execute[1].message == "SUMO could not insert 'new' within 1 s (its place is blocked?)"
+
+
+@needs_sumo
+def test_a_leaf_that_raises_ends_the_run_and_closes_the_simulation(tmp_path: pathlib.Path) -> None:
+    import libsumo
+    import py_trees
+
+    from btgen_pytrees.leaves import default_registry
+
+    class Boom(py_trees.behaviour.Behaviour):
+        def __init__(self, entry: Any, env: Any):
+            super().__init__(entry.name)
+
+        def update(self) -> Any:
+            raise RuntimeError("boom")
+
+    registry = default_registry()
+    registry.register("boom", Boom)
+    path = sumo_case(tmp_path, entry("C1", action="wait"), entry("B1", ["C1"], action="boom"))
+    report = run(btgen_pytrees.load(path, registry=registry), registry=registry)
+    assert (report.verdict, report.message) == ("error", "B1 raised RuntimeError: boom")
+    assert not libsumo.simulation.isLoaded()
+    assert run(btgen_pytrees.load(EXAMPLES / "cut_in.json")).verdict == "fail"  # the next run starts cleanly
+
+
+@needs_sumo
+def test_one_simulation_per_process(tmp_path: pathlib.Path) -> None:
+    from btgen_pytrees.leaves import Environment
+    from btgen_pytrees.run import create_system
+    from btgen_pytrees.systems import SystemFailure
+
+    case = btgen_pytrees.load(EXAMPLES / "cut_in.json")
+    first, second = create_system(case), create_system(case)
+    first.close()  # before start: nothing to do
+    first.start(Environment("/sumo_test_1"))
+    try:
+        with pytest.raises(SystemFailure, match="libsumo runs one simulation per process"):
+            second.start(Environment("/sumo_test_2"))
+    finally:
+        first.close()
+        first.close()
+    second.start(Environment("/sumo_test_2"))
+    second.close()
+
+
+@needs_sumo
+def test_a_scenario_sumo_refuses_ends_the_run_with_sumo_s_message(tmp_path: pathlib.Path) -> None:
+    routes = SCENARIO.replace('departPos="20" departLane="0"', 'departPos="20" departLane="7"')
+    path = sumo_case(tmp_path, entry("C1", action="wait"), routes=routes)
+    before = sumo_processes()
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "error"
+    assert report.message == "SUMO stopped at 0 s: Invalid departLane definition for vehicle 'ego'."
+    assert sumo_processes() <= before
+    routes = SCENARIO.replace('accel="2.6"', 'accel="fast"')
+    path = sumo_case(tmp_path, entry("C1", action="wait"), routes=routes)
+    report = run(btgen_pytrees.load(path))
+    assert report.verdict == "error"
+    assert report.message.startswith(f"SUMO could not load {tmp_path / 's.sumocfg'}: ")
+    assert "Attribute accel. Cannot be parsed to float" in report.message, report.message
+    assert sumo_processes() <= before

@@ -12,6 +12,7 @@ message saying how to install it. See docs/sumo.md.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 from difflib import get_close_matches
@@ -42,6 +43,11 @@ _LEAVES = {"speed": actions.Speed, "release": actions.Release, "lane": actions.L
            "signal": actions.Signal}  # fmt: skip
 
 
+def libsumo_installed() -> bool:
+    """Whether libsumo can be imported (without importing it: that takes about a second)."""
+    return importlib.util.find_spec("libsumo") is not None
+
+
 def signal_vehicles(vehicles: Iterable[str]) -> list[str]:
     """Those vehicle ids that can be read in expressions (``ego.speed``): names, not ``sim``, not reserved."""
     return [v for v in vehicles if _NAME.match(v) and v != "sim" and v not in RESERVED]
@@ -68,6 +74,9 @@ class SumoType:
 
     def describe(self, spec: SystemSpec, case_data: Mapping[str, Any]) -> SystemInfo:
         problems: list[Problem] = []
+        if not libsumo_installed():
+            problems.append(Problem(("system", "type"), "the 'sumo' system needs libsumo, which is not installed: "
+                                    f"{INSTALL_HINT}", "system"))  # fmt: skip
         for index, message in parse_options(list(spec.options))[1]:
             problems.append(Problem(("system", "options", index), message, "system"))
         if not spec.config:
@@ -88,7 +97,8 @@ class SumoType:
                                         f"unknown vehicle {vid!r}{_suggest(vid, known)}", "system"))  # fmt: skip
         vehicles = signal_vehicles([*scenario.vehicles, *spawned])
         signals = [f"{v}.{a}" for v in vehicles for a in ATTRIBUTES] + list(SIM_SIGNALS)
-        return SystemInfo(tuple(signals), tuple(problems), {"scenario": scenario})
+        writers = {f"{v}.{a}": w for v in vehicles for a, w in (("speed", "sumo.speed"), ("lane", "sumo.lane"))}
+        return SystemInfo(tuple(signals), tuple(problems), {"scenario": scenario}, writers=writers)
 
     @staticmethod
     def _check_action(scenario: Scenario, spawned: dict[str, int], i: int, action: str,

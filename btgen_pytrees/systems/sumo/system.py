@@ -114,8 +114,10 @@ class SumoSystem:
         self._contacts: frozenset[tuple[str, str]] = frozenset()
         self._lib: Any = None
         self._started = False
-        self.timing = {"sumo": 0.0, "adapter": 0.0}
-        self.timed = False
+        self.timer: Callable[[], float] | None = None
+        """A clock (e.g. :func:`time.process_time`) to fill :attr:`timing` with; ``None``: no timing."""
+        self.timing = dict.fromkeys(("start", "sumo", "adapter", "close"), 0.0)
+        """Seconds spent loading SUMO, in SUMO's steps, in this adapter (reading, publishing, commands), closing."""
 
     # -- life cycle --------------------------------------------------------------
     def arguments(self) -> list[str]:
@@ -134,6 +136,7 @@ class SumoSystem:
             raise SystemFailure("libsumo runs one simulation per process and another run is using it; "
                                 "run the cases one after the other (batch mode gives each worker process its own)")  # fmt: skip
         args = self.arguments()
+        t0 = self.timer() if self.timer else 0.0
         try:
             lib.start(args)
         except Exception as exc:  # noqa: BLE001 - libsumo.TraCIException, FatalTraCIError
@@ -141,6 +144,8 @@ class SumoSystem:
             raise SystemFailure(f"SUMO could not load {self.scenario.config}: {_why(exc, args)}") from None
         _active, self._lib, self._started = self, lib, True
         self._namespace = env.namespace + "/signals/"
+        if self.timer:
+            self.timing["start"] += self.timer() - t0
         self._step()
 
     def now(self) -> float:
@@ -155,22 +160,24 @@ class SumoSystem:
             self._started = False
             if _active is self:
                 _active = None
+            t0 = self.timer() if self.timer else 0.0
             _close(self._lib)
+            if self.timer:
+                self.timing["close"] += self.timer() - t0
 
     # -- stepping and reading ----------------------------------------------------
     def _step(self) -> None:
         lib = self._lib
         if not self._started:
             raise SystemFailure("the SUMO simulation is not running")
-        if self.timed:
-            from time import perf_counter
-
-            t0 = perf_counter()
+        timer = self.timer
+        if timer:
+            t0 = timer()
             self._simulation_step(lib)
-            t1 = perf_counter()
+            t1 = timer()
             self._read(lib)
             self.timing["sumo"] += t1 - t0
-            self.timing["adapter"] += perf_counter() - t1
+            self.timing["adapter"] += timer() - t1
         else:
             self._simulation_step(lib)
             self._read(lib)
@@ -201,12 +208,11 @@ class SumoSystem:
                 self.collided.update(pair)
 
     def publish(self, env: "Environment") -> None:
-        if self.timed:
-            from time import perf_counter
-
-            t0 = perf_counter()
+        timer = self.timer
+        if timer:
+            t0 = timer()
             self._publish()
-            self.timing["adapter"] += perf_counter() - t0
+            self.timing["adapter"] += timer() - t0
         else:
             self._publish()
 
@@ -315,10 +321,14 @@ class SumoSystem:
     def _call(self, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         if not self._started:
             raise CommandError("the SUMO simulation is not running")
+        t0 = self.timer() if self.timer else 0.0
         try:
             return function(*args, **kwargs)
         except Exception as exc:  # noqa: BLE001 - libsumo.TraCIException
             raise CommandError(str(exc) or type(exc).__name__) from None
+        finally:
+            if self.timer:
+                self.timing["adapter"] += self.timer() - t0
 
 
 def _close(lib: Any) -> None:
@@ -329,10 +339,14 @@ def _close(lib: Any) -> None:
 
 
 def _why(exc: BaseException, args: list[str]) -> str:
-    """SUMO's own error lines for a failed load (libsumo only says 'Process Error')."""
-    message = str(exc).strip()
-    if message and message != "Process Error":
-        return message
+    """SUMO's own error lines for a failed load.
+
+    libsumo's exception often says only "Process Error" or names the element,
+    while SUMO prints the reason on stderr; the ``sumo`` binary of the
+    eclipse-sumo wheel, run on the same (already checked) arguments up to time 0,
+    tells it again on a pipe we can read.
+    """
+    message = " ".join(str(exc).split())
     try:
         import sumo
 
@@ -341,7 +355,7 @@ def _why(exc: BaseException, args: list[str]) -> str:
                               stdin=subprocess.DEVNULL, check=False)  # fmt: skip
         lines = [ln.strip() for ln in done.stderr.splitlines() if ln.strip() and not ln.startswith("Quitting")]
         if lines:
-            return " ".join(lines)[:1000]
+            return " ".join(lines)[:1000].removeprefix("Error: ")
     except Exception:  # noqa: BLE001 - best effort: the eclipse-sumo wheel may be missing
         pass
     return message or type(exc).__name__

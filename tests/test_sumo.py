@@ -331,7 +331,7 @@ def test_acc_example_keeps_its_distance_and_runs_the_same_twice() -> None:
     first, second = run(case), run(case)
     assert first.verdict == "pass" and first.to_json() == second.to_json()
     (gap,) = [o for o in first.oracles if o.id == "R2"]
-    assert [o.verdict for o in first.oracles] == ["pass", "pass", "pass"]
+    assert [o.verdict for o in first.oracles] == ["pass", "pass", "pass", "pass"]
     seen = [values["ego.gap"] for _, values in gap.samples]
     assert 10 <= min(seen) < 20  # the ACC closes in to about 18 m behind the lead when it is nearly stopped
     assert final_values(first, "F1")["lead.speed"] == 0

@@ -480,11 +480,16 @@ class _Checker:
     def _leaf(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> dict[str, Expression]:
         """Check that a leaf is registered for (kind, action) and that its params fit; parse its expressions."""
         leaf = self.registry.get(kind, action)
+        owner = self._other_system(action)
+        if leaf is not None and owner is not None:
+            self.add((*path, "action"), f"{_shown(action)} is an action of the {owner!r} system; this case's system is "
+                     f"{self.spec.type!r} (set \"system\": {{\"type\": \"{owner}\", ...}})", "action")  # fmt: skip
+            return {}
         if leaf is None:
             if action is None:
                 self.add((*path, "type"), f"no leaf is registered for {kind!r} criteria", "action")
                 return {}
-            known = self.registry.actions(kind)
+            known = [a for a in self.registry.actions(kind) if self._other_system(a) is None]
             other = {"behavior": "constraint", "constraint": "behavior"}.get(kind)
             hint = f" ({action!r} is a {other} action)" if other and action in self.registry.actions(other) else ""
             hint = hint or _suggest(action, known)
@@ -511,6 +516,13 @@ class _Checker:
                 if expr is not None:
                     compiled[name] = expr
         return compiled
+
+    def _other_system(self, action: str | None) -> str | None:
+        """The registered system whose action *action* is (``sumo`` for ``sumo.speed``), if not the case's."""
+        prefix = action.partition(".")[0] if action and "." in action else None
+        if prefix is None or prefix == self.spec.type or self.registry.system(prefix) is None:
+            return None
+        return prefix
 
     def _plugin_hint(self, action: str) -> str:
         """Where an unknown action may come from: a system that is not installed, or a plugin."""

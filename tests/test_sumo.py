@@ -511,3 +511,13 @@ def test_a_scenario_sumo_refuses_ends_the_run_with_sumo_s_message(tmp_path: path
     assert report.message.startswith(f"SUMO could not load {tmp_path / 's.sumocfg'}: ")
     assert "Attribute accel. Cannot be parsed to float" in report.message, report.message
     assert sumo_processes() <= before
+
+
+def test_a_sumo_action_in_a_case_without_the_sumo_system_is_a_validation_error() -> None:
+    data = {"name": "t", "execute": [entry("B1", action="sumo.speed", vehicle="ego", to=3), entry("B2", action="sett")]}
+    with pytest.raises(btgen_pytrees.InvalidTestCase) as info:
+        btgen_pytrees.load(data)
+    messages = [f"{p.pointer}: {p.message}" for p in info.value.problems]
+    assert messages[0] == ("/execute/0/action: 'sumo.speed' is an action of the 'sumo' system; this case's system is "
+                           "'simulated' (set \"system\": {\"type\": \"sumo\", ...})")  # fmt: skip
+    assert messages[1].startswith("/execute/1/action: unknown behavior action 'sett' (did you mean 'set'?); known: hold, ramp, set")

@@ -131,7 +131,8 @@ def test_close_on_every_ending(data: dict[str, Any], kw: dict[str, Any], verdict
 
 def test_close_on_keyboard_interrupt_and_the_interrupt_goes_on() -> None:
     reg = registry()
-    loaded = btgen_pytrees.load(case(entry("H", duration=0.1), entry("B", ["H"], action="counter.boom", error="interrupt")), registry=reg)
+    loaded = btgen_pytrees.load(case(entry("H", duration=0.1), entry("B", ["H"], action="counter.boom", error="interrupt"),
+                                     system={"type": "counter"}), registry=reg)  # fmt: skip
     system = Counter(loaded.tick)
     root = btgen_pytrees.generate(loaded, registry=reg)
     with pytest.raises(KeyboardInterrupt):
@@ -254,7 +255,7 @@ COUNTER = {"type": "counter"}
 
 def test_system_key_is_checked_with_json_paths() -> None:
     assert problems(case(entry("A"), system={"type": "countr"})) == [
-        "/system/type: unknown system 'countr' (did you mean 'counter'?); installed: counter, simulated "
+        "/system/type: unknown system 'countr' (did you mean 'counter'?); installed: counter, simulated, sumo "
         "(a plugin may add it: --plugin MODULE or FILE.py)"]  # fmt: skip
     assert problems(case(entry("A"), system={"type": "counter", "option": []})) == [
         "/system/option: unknown key 'option' (did you mean 'options'?)"]  # fmt: skip
@@ -439,7 +440,7 @@ def test_a_third_party_system_from_a_plugin_file_and_the_system_override(clock_p
     assert ok.returncode == 0 and "clocked: PASS after 0.3 s" in ok.stdout, ok.stderr + ok.stdout
     # the case names a system nobody installed: the error says where systems come from
     no_plugin = cli("run", "cases/clocked.json", cwd=clock_plugin)
-    assert no_plugin.returncode == 2 and "cases/clocked.json: /system/type: unknown system 'clock'; installed: simulated " \
+    assert no_plugin.returncode == 2 and "cases/clocked.json: /system/type: unknown system 'clock'; installed: simulated, sumo " \
         "(a plugin may add it: --plugin MODULE or FILE.py)" in no_plugin.stderr  # fmt: skip
     # --system replaces the case's system: the simulated one does not own clock.k
     simulated = cli("run", "cases/clocked.json", "--plugin", plugin, "--system", "simulated", cwd=clock_plugin)
@@ -461,5 +462,5 @@ def test_module_plugin_imports_from_the_current_directory_and_puts_sys_path_back
     unknown = btgen_pytrees.InvalidTestCase
     with pytest.raises(unknown, match=r"unknown behavior action 'clock.wind'; known: hold, ramp, set \(a plugin may add it"):
         btgen_pytrees.load(case(entry("W", action="clock.wind")), registry=reg)
-    with pytest.raises(unknown, match=r"'sumx.speed'; known: hold, ramp, set \(system 'sumx' is not installed; installed: clock, simulated; a plugin"):
+    with pytest.raises(unknown, match=r"'sumx.speed'; known: hold, ramp, set \(system 'sumx' is not installed; installed: clock, simulated, sumo; a plugin"):
         btgen_pytrees.load(case(entry("W", action="sumx.speed")), registry=reg)

@@ -1,4 +1,4 @@
-"""Registration of the built-in simulated leaves, oracles and the ``simulated`` system.
+"""Registration of the built-in simulated leaves, oracles, the ``simulated`` system and the ``sumo`` one.
 
 Built-ins go through :meth:`Registry.register` like any plugin; this module is
 the only place that knows their parameter schemas.
@@ -58,4 +58,7 @@ def register_builtins(registry: Registry) -> Registry:
     registry.register(None, oracles.Period, kind="period", params_schema=no_params, description="expect holds on every tick of a window")
     registry.register(None, oracles.Final, kind="final", params_schema=no_params, description="expect holds at one instant")
     registry.register_system(SIMULATED)
+    from ..systems import sumo  # the SUMO back end registers like a plugin; it imports libsumo only to run
+
+    sumo.register(registry)
     return registry

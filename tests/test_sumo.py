@@ -521,3 +521,10 @@ def test_a_sumo_action_in_a_case_without_the_sumo_system_is_a_validation_error()
     assert messages[0] == ("/execute/0/action: 'sumo.speed' is an action of the 'sumo' system; this case's system is "
                            "'simulated' (set \"system\": {\"type\": \"sumo\", ...})")  # fmt: skip
     assert messages[1].startswith("/execute/1/action: unknown behavior action 'sett' (did you mean 'set'?); known: hold, ramp, set")
+
+
+def test_the_option_allow_list_is_documented() -> None:
+    format_md = (ROOT / "docs" / "format.md").read_text(encoding="utf-8")
+    sumo_md = (ROOT / "docs" / "sumo.md").read_text(encoding="utf-8")
+    for name in OPTIONS:
+        assert f"`--{name}`" in format_md and f"`--{name}`" in sumo_md, name

@@ -211,17 +211,18 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
 
 
 def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
-            junit: bool = False, system: Any = None) -> Outcome:  # fmt: skip
+            junit: bool = False, system: Any = None, max_work: int | None = None) -> Outcome:  # fmt: skip
     """Run one case; outputs: ``<target>.report.json``, ``<target>.junit.xml`` and, with *plot*
     (``svg``/``png``/``html``), ``<target>.<plot>``. With *junit* the JUnit text also comes back
     (``Outcome.junit``) for one batch-wide file. *system* (a ``SystemSpec``) replaces the case's
-    (``run --system``)."""
+    (``run --system``). *max_work* is the work budget (default :data:`~.loader.MAX_WORK`)."""
     from .leaves import default_registry
-    from .loader import load
+    from .loader import MAX_WORK, check_work, load
     from .run import run
 
     registry = default_registry(plugins)
     case = load(path, registry=registry, system=system)
+    check_work(case, MAX_WORK if max_work is None else max_work)
     report = run(case, registry=registry)
     outputs: list[tuple[str, str | bytes]] = []
     if target is not None:

@@ -21,6 +21,7 @@ from .construct import generate
 from .errors import MAX_PROBLEMS, Interrupt, InvalidTestCase, Problem, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
 from .loader import load, load_json, schema_text, validate
+from .loader import MAX_WORK, check_work
 from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, GraphvizMissing, render
 from .systems import SystemSpec
@@ -421,7 +422,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             return _batch(args, files, job, job_args, after=junit)
 
         return _batch(args, files, batch.job_run,
-                      lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system), after=junit)  # fmt: skip
+                      lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system, args.max_work),
+                      after=junit)  # fmt: skip
     for option in ("json", "junit", "plot", "replay", "btlog"):
         _check_output(getattr(args, option), f"--{option}", [args.file])
     _replay_check(args)
@@ -440,6 +442,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return run_sweep(args, data, _system(args))
     registry = _registry(args)
     case = validate(data, args.file, registry=registry, system=_system(args))
+    check_work(case, args.max_work)  # before anything runs: bounded work for any valid input
     logged = _btlog_tree(args, case, registry)
     trace = (lambda line: _err(line)) if args.trace else None
     report = run(case, registry=registry, trace=trace)
@@ -476,6 +479,16 @@ def _non_negative(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"{value} is negative; the root is depth 0")
+    return value
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(float(text)) if "e" in text.lower() else int(text)
+    except (ValueError, OverflowError):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} must be at least 1")
     return value
 
 
@@ -525,6 +538,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")
     run.add_argument("--replay", metavar="PATH", help="write a replay page of the run to PATH: one self-contained HTML file (tree, time slider, statuses, signals, verdicts); needs Graphviz")
     run.add_argument("--max-depth", type=_non_negative, metavar="N", help="--replay: draw nodes down to depth N only (default: collapse deep subtrees of trees over 400 nodes)")
+    run.add_argument("--max-work", type=_positive, default=MAX_WORK, metavar="N",
+                     help=f"work budget of a run: ticks x (entries + criteria + 10), default {MAX_WORK:.0e}; a case over it is refused before running")  # fmt: skip
     run.add_argument("--btlog", metavar="PATH", help="write the run as a BehaviorTree.CPP .btlog (FileLogger2) for Groot2")
     run.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
     run.add_argument("--executor", choices=("local", "dask"), default="local",

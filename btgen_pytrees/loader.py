@@ -44,13 +44,24 @@ from .validation import SchemaValidator
 from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemInfo, SystemSpec
 
-__all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE"]
+__all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE", "MIN_TICK", "MAX_WORK",
+           "work", "check_work"]
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
 """Largest test-case file accepted (16 MiB); larger files are refused before reading."""
 
 MAX_TICKS = 10_000_000
 """Most ticks a run may take (``timeout / tick``); keeps every run bounded."""
+
+MIN_TICK = 1e-6
+"""Smallest ``tick`` (one microsecond). The run clock counts in nanoseconds (``round(k * tick, 9)``):
+far below this a tick would not move it, and a run would burn its ticks at t = 0."""
+
+MAX_WORK = 100_000_000
+"""Default work budget of a run (``run --max-work`` changes it): ``ticks x size``, where ticks is
+``timeout / tick + 1`` and size is ``entries + criteria + 10`` (the ten: the nodes every tree ticks).
+One unit is well under a microsecond for big trees and about 2 µs for tiny ones, so a run within
+the budget takes a few minutes at most."""
 
 MAX_NESTING = 100
 """Deepest nesting of arrays/objects accepted (fuzz finding: deeper values crashed error reporting)."""
@@ -340,8 +351,28 @@ def _schema_problems(data: Any) -> Iterator[Problem]:
 # stage 2: meaning
 
 
+MAX_SUGGESTIONS = 20
+"""Unknown names (ids, signals, actions, keys) that get a "did you mean" per document; later ones get
+none. Each suggestion compares the name with every known one: 20,000 unknown ids against 20,000
+known ones took ten minutes before this bound."""
+
+_suggestions = __import__("threading").local()
+
+
 def _suggest(word: str, candidates: Iterable[str]) -> str:
-    hint = difflib.get_close_matches(word, list(candidates), n=1)
+    """`` (did you mean 'x'?)`` for the closest of *candidates*, within the document's budget.
+
+    Only candidates of about the same length can be close (difflib's ratio needs it), so the
+    comparison is limited to those.
+    """
+    left = getattr(_suggestions, "left", MAX_SUGGESTIONS)
+    if left <= 0:
+        return ""
+    _suggestions.left = left - 1
+    size = len(word)
+    slack = max(3, size // 2)
+    near = [c for c in candidates if abs(len(c) - size) <= slack]
+    hint = difflib.get_close_matches(word, near, n=1)
     return f" (did you mean {hint[0]!r}?)" if hint else ""
 
 
@@ -433,6 +464,9 @@ class _Checker:
         tick, timeout = self.data.get("tick", 0.1), self.data.get("timeout", 60)
         if not (math.isfinite(tick) and math.isfinite(timeout)):
             self.add(("timeout",) if not math.isfinite(timeout) else ("tick",), "must be a finite number", "limit")
+        elif tick < MIN_TICK:
+            self.add(("tick",), f"{tick:g} s is below the smallest tick, {MIN_TICK:g} s (the run clock counts in "
+                     "nanoseconds; a smaller tick would not advance it)", "limit")  # fmt: skip
         elif timeout / tick > MAX_TICKS:
             self.add(("timeout",), f"timeout/tick is {timeout / tick:.3g} ticks; the limit is {MAX_TICKS}", "limit")
 
@@ -661,6 +695,23 @@ def _option_problems(options: tuple[str, ...], system_type: Any) -> list[tuple[i
     return problems
 
 
+def work(case: TestCase) -> int:
+    """The work units of a run of *case*: ``(timeout / tick + 1) x (entries + criteria + 10)`` (see :data:`MAX_WORK`)."""
+    ticks = int(case.timeout / case.tick + 1e-9) + 1
+    return ticks * (len(case.entries) + len(case.criteria) + 10)
+
+
+def check_work(case: TestCase, max_work: int = MAX_WORK) -> None:
+    """Raise :class:`InvalidTestCase` (at ``/timeout``, cause ``limit``) if a run of *case* exceeds *max_work*."""
+    units = work(case)
+    if units > max_work:
+        ticks = int(case.timeout / case.tick + 1e-9) + 1
+        size = len(case.entries) + len(case.criteria) + 10
+        message = (f"the run would do {ticks} ticks x {size} (entries + criteria + 10) = {units:.3g} units of work; "
+                   f"the budget is {max_work:.3g} (raise the tick, lower the timeout, or run --max-work N)")  # fmt: skip
+        raise InvalidTestCase([Problem(("timeout",), message, "limit")], case.source)
+
+
 def validate(data: Any, source: str = "<dict>", registry: Registry | None = None, system: SystemSpec | None = None) -> TestCase:
     """Check parsed JSON *data* and build the :class:`TestCase`; raise :class:`InvalidTestCase`.
 
@@ -669,6 +720,7 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
     are kept when *system* names the same type and gives none.
     """
     registry = registry if registry is not None else default_registry()
+    _suggestions.left = MAX_SUGGESTIONS  # "did you mean" budget of this document
     problems = sorted(set(_value_problems(data)), key=_sort_key)  # stage 0 (fuzz findings, see above)
     if problems:
         raise InvalidTestCase(problems, source)

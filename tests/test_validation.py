@@ -162,7 +162,8 @@ def test_action_of_the_other_kind() -> None:
 
 
 def test_too_many_ticks() -> None:
-    assert only(case(entry("A"), tick=1e-9, timeout=1e9))[0] == "/timeout"
+    assert only(case(entry("A"), tick=1e-6, timeout=1e9))[0] == "/timeout"
+    assert only(case(entry("A"), tick=1e-9, timeout=1e-3))[0] == "/tick"  # below MIN_TICK
 
 
 def test_reserved_signal_name() -> None:

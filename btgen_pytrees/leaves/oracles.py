@@ -49,6 +49,12 @@ class Outcome:
     values: dict[str, Any] = field(default_factory=dict)
 
 
+MAX_SAMPLES = 1000
+"""Most value changes an oracle keeps (``samples``, a fallback for plots; the run's trace has the
+full signal history). What the reports need is kept apart and always: the first violation and the
+last values read (:class:`Outcome`). Unbounded, a 485-byte case reached 3 GB."""
+
+
 class Oracle(py_trees.behaviour.Behaviour):
     """Base: evaluates its criterion's expression against the blackboard signals."""
 
@@ -67,7 +73,7 @@ class Oracle(py_trees.behaviour.Behaviour):
         """Evaluate ``expect`` now; remember the values; on failure record the outcome."""
         expect = self.criterion.expect
         values = self.env.values(expect.names)
-        if not self.samples or self.samples[-1][1] != values:
+        if (not self.samples or self.samples[-1][1] != values) and len(self.samples) < MAX_SAMPLES:
             self.samples.append((now, values))
         try:
             ok = bool(expect.evaluate(values))

@@ -24,6 +24,7 @@ import typing
 from heapq import heapify, heappop, heappush
 
 import py_trees
+from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from .environment import Environment
@@ -282,6 +283,10 @@ class OrMember(py_trees.decorators.Decorator):
         self.member = member
         self.group = tuple(group)
         self.latched = False
+        # how many members have failed in this run: one shared counter under the tree's namespace
+        # (cleared with it at the start of each run), so "has every member failed?" costs O(1), not a
+        # scan of the group by each latched member on every tick (O(N^2) per tick for N members)
+        self._failed_count = f"{env.namespace}/failed_count/{self.group[0] if self.group else member}"
 
     def initialise(self) -> None:
         self.latched = False
@@ -293,7 +298,10 @@ class OrMember(py_trees.decorators.Decorator):
             yield from self.decorated.tick()
             if self.decorated.status == Status.FAILURE:
                 self.latched = True
-                self.env.mark_failed(self.member)
+                if not self.env.is_failed(self.member):
+                    self.env.mark_failed(self.member)
+                    storage = Blackboard.storage
+                    storage[self._failed_count] = storage.get(self._failed_count, 0) + 1
         new_status = self.update()
         if new_status != Status.RUNNING:
             self.stop(new_status)
@@ -303,7 +311,7 @@ class OrMember(py_trees.decorators.Decorator):
     def update(self) -> Status:
         if not self.latched:
             return self.decorated.status
-        if all(self.env.is_failed(m) for m in self.group):
+        if Blackboard.storage.get(self._failed_count, 0) >= len(self.group):
             self.feedback_message = "every member of the group failed"
             return Status.FAILURE
         self.feedback_message = "failed; the group may still pass"

@@ -31,6 +31,7 @@ True
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import textwrap
@@ -47,7 +48,7 @@ from ..leaves.wiring import Trigger
 from .info import annotation, is_selected, role, type_name, walk
 
 __all__ = [
-    "dot_graph", "dot_source", "graphviz_render", "GraphvizMissing", "IMAGE_FORMATS", "STYLES",
+    "dot_graph", "dot_source", "graphviz_render", "GraphvizMissing", "GraphvizTimeout", "GRAPHVIZ_TIMEOUT", "IMAGE_FORMATS", "STYLES",
     "format_dot", "format_svg", "format_png",
 ]  # fmt: skip
 
@@ -244,11 +245,32 @@ def dot_source(root: py_trees.behaviour.Behaviour, *, max_depth: int | None = No
     return dot_graph(root, max_depth=max_depth).to_string()
 
 
-def graphviz_render(source: str, fmt: str, *, timeout: float = 300) -> bytes:
+GRAPHVIZ_TIMEOUT = 60.0
+"""Seconds Graphviz may take to lay out a picture; a 10,000-wide tree took 300 s and then failed."""
+
+
+class GraphvizTimeout(GraphvizMissing):
+    """Graphviz did not finish within :data:`GRAPHVIZ_TIMEOUT`; ``str()`` is a one-line hint.
+
+    A kind of :class:`GraphvizMissing` (the picture cannot be made here), so every caller that
+    turns that into one line and exit 2 does the same for this.
+    """
+
+    def __init__(self, fmt: str, timeout: float, nodes: int):
+        RuntimeError.__init__(
+            self,
+            f"--format {fmt}: Graphviz did not finish laying out {nodes} nodes within {timeout:g} s; draw less "
+            "with --max-depth N, or use --format dot (no layout)",
+        )
+        self.fmt = fmt
+
+
+def graphviz_render(source: str, fmt: str, *, timeout: float = GRAPHVIZ_TIMEOUT) -> bytes:
     """Lay out DOT *source* with Graphviz's ``dot`` and return the *fmt* (``svg``/``png``) bytes.
 
     Raises:
         GraphvizMissing: ``dot`` is not installed (the DOT text still works elsewhere)
+        GraphvizTimeout: ``dot`` took longer than *timeout* seconds (it is stopped)
         RuntimeError: ``dot`` failed; the message is its first line of complaint
     """
     if fmt not in IMAGE_FORMATS:
@@ -256,8 +278,11 @@ def graphviz_render(source: str, fmt: str, *, timeout: float = 300) -> bytes:
     program = shutil.which("dot")
     if program is None:
         raise GraphvizMissing(fmt)
-    done = subprocess.run([program, f"-T{fmt}"], input=source.encode("utf-8"), capture_output=True,
-                          timeout=timeout, check=False)  # fmt: skip
+    try:
+        done = subprocess.run([program, f"-T{fmt}"], input=source.encode("utf-8"), capture_output=True,
+                              timeout=timeout, check=False)  # fmt: skip
+    except subprocess.TimeoutExpired:  # subprocess.run has killed dot
+        raise GraphvizTimeout(fmt, timeout, len(re.findall(r"^n\d+ \[", source, re.M))) from None
     if done.returncode != 0:
         complaint = done.stderr.decode("utf-8", "replace").strip().splitlines()
         raise RuntimeError(f"Graphviz dot failed: {complaint[0] if complaint else f'exit status {done.returncode}'}")

@@ -386,11 +386,19 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
             pending = list(range(len(paths)))[::-1]  # a stack: pop() gives input order
             slots = [_Slot(context) for _ in range(max(1, min(workers, len(paths))))]
             while done < len(paths):
-                for slot in slots:
+                for n, slot in enumerate(slots):
                     if slot.task is None and pending:
-                        slot.task = pending.pop()
-                        slot.conn.send((slot.task, job, paths[slot.task], jobs_args[slot.task]))
+                        task = pending.pop()
+                        try:
+                            slot.conn.send((task, job, paths[task], jobs_args[task]))
+                            slot.task = task
+                        except OSError:  # the idle worker died (killed from outside): a new one, task back
+                            pending.append(task)
+                            _stop_all([slot])
+                            slots[n] = _Slot(context)
                 busy = [s for s in slots if s.task is not None]
+                if not busy:  # every idle worker was replaced just now: hand out the tasks again
+                    continue
                 ready = wait([s.conn for s in busy] + [s.process.sentinel for s in busy])
                 for slot in busy:
                     if slot.conn in ready or slot.process.sentinel in ready:

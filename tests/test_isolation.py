@@ -218,3 +218,19 @@ def test_a_signal_stops_a_batch_at_once_with_a_partial_summary(tmp_path: pathlib
     assert "a_quick.json" in stdout and "NOT RUN" in stdout and "7 files: 1 ok, 6 not run" in stdout
     assert not marked_processes(plugin_env["BTGEN_TEST_MARK"])
     assert not [p.name for p in out.iterdir() if ".tmp" in p.name]
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_stops_a_single_run_and_writes_nothing(tmp_path: pathlib.Path, plugin_env: dict[str, str], signum: int) -> None:
+    path = tmp_path / "slow.json"
+    path.write_text(json.dumps(one("sleep", timeout=20)))
+    report = tmp_path / "r.json"
+    proc = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "run", str(path), "--plugin", "killer_plugin",
+                             "--json", str(report)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=ROOT, env=plugin_env)  # fmt: skip
+    time.sleep(2)
+    proc.send_signal(signum)
+    stdout, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 128 + signum, (stdout, stderr)
+    assert stderr.strip() == f"btgen_pytrees: interrupted by {signal.Signals(signum).name}"
+    assert not report.exists() and not [p for p in tmp_path.iterdir() if ".tmp" in p.name]

@@ -234,3 +234,47 @@ def test_batch_plots_and_one_junit_file(tmp_path: pathlib.Path) -> None:
     assert [s.get("file") for s in suites] == [str(suite / n) for n in ("a.json", "b.json", "c.json", "d.json")]
     assert int(root.get("failures", "0")) >= 1 and int(root.get("errors", "0")) >= 1
     assert suites[2].find("testcase/error") is not None  # the invalid file is counted, not dropped
+
+
+def test_a_failing_write_leaves_no_temporary_file(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A write that fails half-way (disk full) removes its temporary file, for plots too."""
+    pytest.importorskip("matplotlib")
+    import builtins
+
+    from btgen_pytrees.run import run
+    from btgen_pytrees.run.plot import plot_run
+
+    loaded = btgen_pytrees_load(FIG1)
+    report = run(loaded)
+    real_open = builtins.open
+
+    class Full:
+        def __init__(self, fh: object) -> None:
+            self.fh = fh
+
+        def __enter__(self) -> "Full":
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            self.fh.close()  # type: ignore[attr-defined]
+
+        def write(self, data: bytes) -> int:
+            self.fh.write(data[:10])  # type: ignore[attr-defined]
+            raise OSError(28, "No space left on device")
+
+    def full_open(path: object, mode: str = "r", *args: object, **kw: object) -> object:
+        fh = real_open(path, mode, *args, **kw)  # type: ignore[call-overload]
+        return Full(fh) if "w" in mode and ".tmp" in str(path) else fh
+
+    monkeypatch.setattr(builtins, "open", full_open)
+    with pytest.raises(OSError):
+        plot_run(report, loaded, str(tmp_path / "run.svg"))
+    with pytest.raises(OSError):
+        commit([(str(tmp_path / "a.json"), "{}"), (str(tmp_path / "b.xml"), "<x/>")])
+    assert list(tmp_path.iterdir()) == []
+
+
+def btgen_pytrees_load(path: pathlib.Path):  # type: ignore[no-untyped-def]
+    import btgen_pytrees
+
+    return btgen_pytrees.load(path)

@@ -384,9 +384,11 @@ def _html_page(report: Report, svg: str) -> bytes:
 
 
 def plot_run(report: Report, case: TestCase, path: str) -> None:
-    """Write the run picture of *report* to *path* (``.svg``, ``.png`` or ``.html``)."""
-    data = plot_bytes(report, case, plot_format(path))
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-    os.replace(tmp, path)
+    """Write the run picture of *report* to *path* (``.svg``, ``.png`` or ``.html``).
+
+    Written as every output is (:func:`btgen_pytrees.output.write_file`): complete or not at all,
+    no temporary file left behind on failure, symlinks followed, devices written in place.
+    """
+    from ..output import write_file
+
+    write_file(path, plot_bytes(report, case, plot_format(path)))

@@ -179,27 +179,34 @@ def measure_generation(
         emit({"floor_peak": peak, "floor_held": held})
 
 
-def _bare_run(root: Any, case: Any, clock: VirtualClock) -> int:
+def _bare_run(root: Any, case: Any, clock: VirtualClock, yields: list[int] | None = None) -> int:
     """Tick *root* the way :func:`~btgen_pytrees.run.run_tree` does, minus recorder and report.
 
     Same set-up call, same clock steps (``round(k * tick, 9)``), same stop
-    rule; the loop body is py_trees' own ``tick_once``. Returns the tick count.
+    rule; the loop body is py_trees' own ``tick_once`` (iterating the root's
+    ``tick()``), counting the nodes ticked into *yields* (one number per run)
+    when given. Returns the tick count.
     """
     root.setup_with_descendants()
     last = int(case.timeout / case.tick + 1e-9)
     ticks = 0
+    ticked = 0
     for k in range(last + 1):
         clock.set(round(k * case.tick, 9))
         ticks = k + 1
-        root.tick_once()
+        for _ in root.tick():
+            ticked += 1
         if root.status in _DONE:
             break
     if root.status == Status.RUNNING:
         root.stop(Status.INVALID)
+    if yields is not None:
+        yields.append(ticked)
     return ticks
 
 
-def measure_ticks(n: int, repeats: int, emit: Emit, *, clock: str = "cpu", shape: str = "random") -> None:
+def measure_ticks(n: int, repeats: int, emit: Emit, *, clock: str = "cpu", shape: str = "random",
+                  contenders: tuple[str, ...] = ("bare", "run_tree", "traced")) -> None:  # fmt: skip
     """Per-tick cost of ``run_tree`` against bare ticking of identically generated trees.
 
     The case of *shape* (the issue's target is on ``random``) with *n* entries
@@ -207,29 +214,33 @@ def measure_ticks(n: int, repeats: int, emit: Emit, *, clock: str = "cpu", shape
     tree runs once), alternating which goes first so neither always inherits
     the other's garbage. ``run_tree`` is timed whole - recorder set-up, ticks
     and report - because that is what a user waits for; ``traced`` adds a
-    trace callback that keeps every line.
+    trace callback that keeps every line. *contenders* picks among the three
+    (the per-shape run jobs leave ``traced`` out).
 
-    Emits ``nodes``, then after every contender's run the best ``seconds`` and
+    Emits ``nodes`` and ``ticked`` (nodes ticked in the whole bare run: the
+    active part), then after every contender's run the best ``seconds`` and
     the ``ticks`` of each contender so far (a long run that hits its time
     limit still reports the contenders that finished), and the ``verdict``.
     """
     now = CLOCKS[clock]
     emit({"stage": "load"})
     case = btgen_pytrees.load(timelines.build(shape, n))
-    emit({"nodes": floor.count(btgen_pytrees.generate(case))})
     best: dict[str, float] = {}
     ticks: dict[str, int] = {}
     lines: list[str] = []
-    order = ["bare", "run_tree", "traced"]
+    yields: list[int] = []
+    order = list(contenders)
     for r in range(repeats):
         for name in order if r % 2 == 0 else reversed(order):
             emit({"stage": name})
             virtual = VirtualClock()
             root = btgen_pytrees.generate(case, clock=virtual)
+            if not best and not ticks:
+                emit({"nodes": floor.count(root)})
             _fresh()
             t0 = now()
             if name == "bare":
-                ticks[name] = _bare_run(root, case, virtual)
+                ticks[name] = _bare_run(root, case, virtual, yields)
             else:
                 lines.clear()
                 report = run_tree(root, case, virtual, trace=lines.append if name == "traced" else None)
@@ -240,4 +251,6 @@ def measure_ticks(n: int, repeats: int, emit: Emit, *, clock: str = "cpu", shape
             elapsed = now() - t0
             best[name] = min(best.get(name, elapsed), elapsed)
             del root
+            if yields:
+                emit({"ticked": yields[-1]})
             emit({"seconds": dict(best), "ticks": dict(ticks)})

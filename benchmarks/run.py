@@ -45,9 +45,12 @@ DEFAULT_TIMEOUT = 300.0
 DEFAULT_BUDGET = 600.0
 MIN_TIMEOUT = 60.0
 
-TARGETS = {"total/floor": 2.0, "scaling": 1.3, "peak/floor": 2.0, "tick/bare": 1.5}
+TARGETS = {"total/floor": 2.0, "scaling": 1.3, "peak/floor": 2.0, "tick/bare": 1.5, "run scaling": 1.3,
+           "run/bare": 1.5}  # fmt: skip
 """The issue's targets: at the largest size, time and memory against the floor; per-entry
-time at the largest size against the size ten times smaller; run_tree per tick against bare."""
+time at the largest size against the size ten times smaller; run_tree per tick against bare;
+for the per-shape runs, run time per entry at the largest run size against a tenth of it, and
+run_tree per tick against bare ticking of the same tree (which ticks only its active part)."""
 
 
 # ---------------------------------------------------------------------------
@@ -78,6 +81,9 @@ def _dispatch(job: Job, emit: measure.Emit) -> None:
                                    gc_on=job.gc_on)  # fmt: skip
     elif job.kind == "ticks":
         measure.measure_ticks(job.n, job.repeats, emit, clock=job.clock, shape=job.shape)
+    elif job.kind == "runs":
+        measure.measure_ticks(job.n, job.repeats, emit, clock=job.clock, shape=job.shape,
+                              contenders=("bare", "run_tree"))  # fmt: skip
     elif job.kind == "schemas":
         schemas.measure_schemas(job.n, job.repeats, emit, clock=job.clock)
     else:
@@ -223,6 +229,51 @@ def tick_row(job: Job) -> dict[str, Any]:
     if ticks and len(set(ticks.values())) > 1:
         row["status"] = f"{row['status']}; tick counts differ: {ticks}"
     return row
+
+
+def run_rows(jobs: Sequence[Job]) -> list[dict[str, Any]]:
+    """One row per per-shape run job: per tick and per entry, against bare, and scaling over a tenth of n."""
+    rows = []
+    per_entry: dict[tuple[str, int], float] = {}
+    for job in jobs:
+        if job.kind != "runs":
+            continue
+        row = tick_row(job)
+        seconds = job.result.get("seconds", {})
+        row["ticked/tick"] = (job.result["ticked"] / row["ticks"]
+                              if job.result.get("ticked") and row.get("ticks") else None)  # fmt: skip
+        row["run us/entry"] = seconds["run_tree"] / job.n * 1e6 if "run_tree" in seconds else None
+        if row["run us/entry"] is not None:
+            per_entry[(job.shape, job.n)] = row["run us/entry"]
+        tenth = job.n // 10 if job.n % 10 == 0 else None
+        row["run scaling"] = _ratio(row["run us/entry"], per_entry.get((job.shape, tenth)))
+        rows.append(row)
+    return rows
+
+
+def run_table(rows: Sequence[dict[str, Any]]) -> str:
+    headers = ["case", "nodes", "ticks", "verdict", "ticked/tick", "bare ms/tick", "run_tree ms/tick", "run/bare",
+               "run s", "us/entry", "scaling"]  # fmt: skip
+    body = [[f"{r['shape']} n={r['n']}", _fmt(r["nodes"]), _fmt(r["ticks"]), _fmt(r["verdict"]),
+             "-" if r["ticked/tick"] is None else f"{r['ticked/tick']:.0f}",
+             _fmt(r.get("bare s/tick"), "ms"), _fmt(r.get("run_tree s/tick"), "ms"), _fmt(r["tick/bare"], "x"),
+             _fmt(None if r.get("run_tree s/tick") is None or not r["ticks"] else r["run_tree s/tick"] * r["ticks"], "s"),
+             _fmt(r["run us/entry"], "us"), _fmt(r["run scaling"], "x")] for r in rows]  # fmt: skip
+    notes = [f"  {r['shape']} n={r['n']}: {r['status']}" for r in rows if r["status"] != "ok"]
+    return table(headers, body) + ("\n" + "\n".join(notes) if notes else "")
+
+
+def check_run_targets(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """run/bare and run scaling for each shape at the largest run size."""
+    out = []
+    largest = max((row["n"] for row in rows), default=0)
+    for row in rows:
+        if row["n"] != largest:
+            continue
+        for key, value in (("run scaling", row["run scaling"]), ("run/bare", row["tick/bare"])):
+            out.append({"case": f"run {row['shape']} n={row['n']}", "target": key, "value": value,
+                        "limit": TARGETS[key], "met": None if value is None else value <= TARGETS[key]})  # fmt: skip
+    return out
 
 
 def check_targets(rows: Sequence[dict[str, Any]], tick: dict[str, Any] | None) -> list[dict[str, Any]]:
@@ -403,6 +454,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="entries of the case for the run-vs-bare tick benchmark (0: skip)")  # fmt: skip
     parser.add_argument("--tick-shape", choices=list(timelines.SHAPES), default="random",
                         help="shape of that case (default random, as the issue's target)")
+    parser.add_argument("--run-sizes", type=int, nargs="+", metavar="N",
+                        help="entry counts of the per-shape run jobs (default: the sizes of 10,000 and more; 0: none)")
     parser.add_argument("--schema-n", type=int, default=10_000, metavar="N",
                         help="entries of the random case for the schema-validator comparison (0: skip)")  # fmt: skip
     parser.add_argument("--no-memory", action="store_true", help="skip the tracemalloc passes")
@@ -419,6 +472,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         args.sizes = list(QUICK_SIZES if args.quick else SIZES)
     if any(n < 3 for n in args.sizes):
         parser.error("sizes must be at least 3")
+    if args.run_sizes is None:
+        args.run_sizes = [n for n in args.sizes if n >= 10_000]
+    args.run_sizes = sorted({n for n in args.run_sizes if n > 0})
     return args
 
 
@@ -439,13 +495,18 @@ def plan(args: argparse.Namespace) -> list[Job]:
         return [Job("generation", n, shape, repeats(n), memory=memory, clock=args.clock, gc_on=args.gc == "on")
                 for shape in shapes]  # fmt: skip
 
+    def runs(n: int) -> list[Job]:
+        return [Job("runs", n, shape, repeats=min(2, repeats(n)), clock=args.clock) for shape in shapes]
+
     jobs = [job for n in sizes[:-1] for job in generation(n)]
+    jobs += [job for n in args.run_sizes[:-1] for job in runs(n)]
     if args.tick_n:
         tick_repeats = min(2, repeats(args.tick_n))
         jobs.append(Job("ticks", args.tick_n, args.tick_shape, repeats=tick_repeats, clock=args.clock))
     if args.schema_n:
         jobs.append(Job("schemas", args.schema_n, repeats=min(2, repeats(args.schema_n)), clock=args.clock))
-    return jobs + generation(sizes[-1])
+    jobs += generation(sizes[-1])
+    return jobs + [job for n in args.run_sizes[-1:] for job in runs(n)]
 
 
 def document_command(args: argparse.Namespace) -> str:
@@ -460,7 +521,8 @@ def report(
     tick_job = next((j for j in jobs if j.kind == "ticks"), None)
     schema_job = next((j for j in jobs if j.kind == "schemas"), None)
     tick = tick_row(tick_job) if tick_job else None
-    targets = check_targets(rows, tick)
+    runs = run_rows(jobs)
+    targets = check_targets(rows, tick) + check_run_targets(runs)
     clock = "CPU" if args.clock == "cpu" else "wall"
     collector = "" if args.gc == "on" else ", garbage collector off"
     parts = [machine_text(info), f"command: {document_command(args)}", "",
@@ -471,11 +533,15 @@ def report(
     if tick is not None:
         heading = "run: run_tree (recorder, clock, report) against bare tick_once on the same tree"
         parts += ["", heading, tick_table(tick)]
+    if runs:
+        parts += ["", "runs: run_tree per shape against bare ticking of the same tree (ticked/tick: nodes a bare tick",
+                  "yields, the active part; us/entry: the whole run_tree per entry; scaling: over a tenth of the entries)",
+                  run_table(runs)]  # fmt: skip
     if schema_job is not None:
         parts += ["", schema_table(schema_job)]
     parts += ["", "targets", targets_text(targets), "", f"finished in {wall:.0f} s"]
     document = {"command": document_command(args), "machine": info,
-                "generation": rows, "ticks": tick, "schemas": schema_job.result if schema_job else None,
+                "generation": rows, "ticks": tick, "runs": runs, "schemas": schema_job.result if schema_job else None,
                 "targets": targets, "wall": wall}  # fmt: skip
     return "\n".join(parts), document
 

@@ -20,7 +20,7 @@ from .dot import GraphvizMissing, format_dot, format_png, format_svg
 from .info import node_info, walk
 from .text import text_tree
 
-__all__ = ["render", "tree_data", "FORMATS", "text_tree", "node_info", "GraphvizMissing"]
+__all__ = ["render", "tree_data", "FORMATS", "JSON_INDENT_LIMIT", "text_tree", "node_info", "GraphvizMissing"]
 
 
 def tree_data(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
@@ -39,8 +39,23 @@ def tree_data(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
     return top
 
 
-def _json(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:
-    return json.dumps(tree_data(root), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+JSON_INDENT_LIMIT = 2_000
+"""Largest tree (in nodes) whose JSON view is indented by default.
+
+Indentation grows with depth (each tree level nests an object in a
+``children`` list: four more spaces), so an indented 10,000-entry comb, 100
+levels deep, is 48 MB of mostly spaces (2.4 MB compact). Larger trees are written compact
+(no spaces, one line); ``indent=`` chooses either way.
+"""
+
+
+def _json(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, indent: int | None | str = "auto", **_: Any) -> str:
+    data = tree_data(root)
+    if indent == "auto":
+        indent = 2 if sum(1 for _ in walk(root)) <= JSON_INDENT_LIMIT else None
+    if indent is None:
+        return json.dumps(data, separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n"
+    return json.dumps(data, indent=indent, ensure_ascii=False, allow_nan=False) + "\n"
 
 
 def _matrix(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:

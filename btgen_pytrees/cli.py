@@ -456,6 +456,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         outputs.append((args.plot, plot_bytes(report, case, plot_format(args.plot))))
     outputs += _replay_outputs(args, report, case, registry, logged)
+    shown = {args.json: "json", args.junit: "btcpp"}  # '-': printed like any view, escaped for a terminal
+    outputs = [(t, _stdout_text(d, shown.get(t, "")).encode("utf-8") if t == "-" and isinstance(d, str) else d)
+               for t, d in outputs]  # fmt: skip
     commit(outputs)  # all together, after everything was made: a failure leaves none
     _print(report.table())
     return EXIT_OK if report.passed else EXIT_FAIL

@@ -155,3 +155,15 @@ def test_non_utf8_file_names_in_a_batch(tmp_path: pathlib.Path) -> None:
     assert "caf\\xe9.json" in text and "\\x1b[8m.json" in text and "3 files: 3 ok" in text
     assert b"\x1b" not in result.stdout and b"\xe9" not in result.stdout
     assert len(list(out.iterdir())) == 6
+
+
+def test_reports_to_stdout_are_escaped_and_still_parse(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps(nasty_case("t\u202e\x85x", "n\u2028", "d")))
+    for option, parse in (("--json", strict_json), ("--junit", ET.fromstring)):
+        result = subprocess.run([sys.executable, "-m", "btgen_pytrees", "run", str(path), option, "-"],
+                                capture_output=True, text=True, timeout=60, cwd=ROOT)  # fmt: skip
+        assert result.returncode == 1
+        document, _, table = result.stdout.partition("\ncriterion")
+        visible(result.stdout)
+        parse(document.split("\n", 1)[1] if option == "--junit" else document)

@@ -528,3 +528,16 @@ def test_the_option_allow_list_is_documented() -> None:
     sumo_md = (ROOT / "docs" / "sumo.md").read_text(encoding="utf-8")
     for name in OPTIONS:
         assert f"`--{name}`" in format_md and f"`--{name}`" in sumo_md, name
+
+
+@needs_sumo
+def test_an_infinite_gap_is_written_to_the_json_report_as_text(tmp_path: pathlib.Path) -> None:
+    import jsonschema
+
+    path = sumo_case(tmp_path, entry("C1", action="wait"), criteria=[crit("F1", "final", "ego.gap < 1000")])
+    done = cli("run", str(path), "--json", str(tmp_path / "r.json"))
+    assert done.returncode == 1 and "ego.gap < 1000 is false at 1 s (ego.gap=inf)" in done.stdout, done.stderr
+    text = (tmp_path / "r.json").read_text(encoding="utf-8")
+    report = json.loads(text, parse_constant=lambda name: pytest.fail(f"{name} in the JSON report"))
+    assert report["oracles"][0]["values"] == {"ego.gap": "inf"}
+    jsonschema.validate(report, json.loads((ROOT / "schemas" / "report.schema.json").read_text(encoding="utf-8")))

@@ -6,6 +6,7 @@ The JSON form is described by ``schemas/report.schema.json``.
 from __future__ import annotations
 
 import json
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any
@@ -83,6 +84,7 @@ class Report:
         del data["trace"]
         for oracle in data["oracles"]:
             del oracle["samples"]
+            oracle["values"] = {k: _json_value(v) for k, v in oracle["values"].items()}
         return data
 
     def to_json(self) -> str:
@@ -143,6 +145,14 @@ class Report:
         ET.indent(root)
         # characters XML forbids can only sit in names and messages: escaped, the document stays well-formed
         return xml_safe(ET.tostring(root, encoding="unicode", xml_declaration=True)) + "\n"
+
+
+def _json_value(value: Any) -> Any:
+    """A signal value as JSON can hold it: infinity and NaN (a SUMO vehicle's ``gap`` without a
+    leader is ``inf``) as the strings ``"inf"``, ``"-inf"``, ``"nan"``, like the replay page."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return value
 
 
 def _time(t: float | None) -> str:

@@ -541,3 +541,26 @@ def test_an_infinite_gap_is_written_to_the_json_report_as_text(tmp_path: pathlib
     report = json.loads(text, parse_constant=lambda name: pytest.fail(f"{name} in the JSON report"))
     assert report["oracles"][0]["values"] == {"ego.gap": "inf"}
     jsonschema.validate(report, json.loads((ROOT / "schemas" / "report.schema.json").read_text(encoding="utf-8")))
+
+
+@needs_sumo
+def test_ctrl_c_in_a_sumo_run_closes_the_simulation_and_goes_on(tmp_path: pathlib.Path) -> None:
+    import libsumo
+    import py_trees
+
+    from btgen_pytrees.leaves import default_registry
+
+    class Interrupt(py_trees.behaviour.Behaviour):
+        def __init__(self, entry: Any, env: Any):
+            super().__init__(entry.name)
+
+        def update(self) -> Any:
+            raise KeyboardInterrupt
+
+    registry = default_registry()
+    registry.register("interrupt", Interrupt)
+    path = sumo_case(tmp_path, entry("C1", action="wait"), entry("B1", ["C1"], action="interrupt"))
+    with pytest.raises(KeyboardInterrupt):
+        run(btgen_pytrees.load(path, registry=registry), registry=registry)
+    assert not libsumo.simulation.isLoaded()
+    assert run(btgen_pytrees.load(EXAMPLES / "cut_in.json")).verdict == "fail"

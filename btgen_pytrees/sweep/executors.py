@@ -31,6 +31,7 @@ imports them only when a :class:`DaskExecutor` is created.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 import uuid
@@ -83,10 +84,8 @@ class DaskExecutor(Executor):
     """
 
     def __init__(self, address: str, *, chunk: int | None = None, timeout: float = 10.0):
-        try:
-            import distributed  # noqa: F401
-        except ImportError as exc:
-            raise DaskUnavailable(HINT) from exc
+        if importlib.util.find_spec("distributed") is None:
+            raise DaskUnavailable(HINT)
         self.address = address
         self.chunk = chunk
         self.timeout = timeout
@@ -133,7 +132,7 @@ class DaskExecutor(Executor):
             futures = [client.submit(run_chunk, chunk, key=f"btgen-{token}-{j}", pure=False)
                        for j, chunk in enumerate(chunks)]  # fmt: skip
             owner = {f.key: chunk for f, chunk in zip(futures, chunks)}
-            for future in as_completed(futures):
+            for future in as_completed(futures, loop=client.loop):
                 if future.status == "finished":
                     yield from future.result()
                 else:  # the scheduler gave up on it (KilledWorker) or it was lost: say so per call

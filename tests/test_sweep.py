@@ -314,3 +314,33 @@ def test_map_uses_margins_strips_scatter_and_parallel_coordinates() -> None:
     assert len(scatter.axes[0].collections) == 20
     many = map_figure(_report({"a": [1, 2], "b": [1, 2], "c": [1, 2]}, lambda v: "timeout" if v["c"] == 2 else "pass"))
     assert len(many.axes[0].lines) == 8 + 3  # a line per variation, an axis per parameter
+
+
+needs_sumo = pytest.mark.skipif(
+    __import__("importlib").util.find_spec("libsumo") is None and not __import__("os").environ.get("CI"),
+    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)",
+)
+
+
+@needs_sumo
+def test_the_sumo_cut_in_sweep_fails_where_the_gap_is_small_and_the_speed_high(tmp_path: pathlib.Path) -> None:
+    data = json.loads((ROOT / "examples" / "sumo" / "cut_in_sweep.json").read_text())
+    data["variations"] = {"gap": [1, 8], "ego_speed": [21, 25]}
+    for name in ("cut_in.sumocfg", "cut_in.rou.xml", "road.net.xml"):  # the scenario files, beside the case
+        (tmp_path / name).write_bytes((ROOT / "examples" / "sumo" / name).read_bytes())
+    path = tmp_path / "sweep.json"
+    path.write_text(json.dumps(data))
+    result = cli("run", str(path), "--plugin", "btgen_pytrees.systems.sumo", "--jobs", "2", "--json", str(tmp_path / "r.json"))
+    assert result.returncode == 1, result.stderr
+    rows = {r["label"]: r["verdict"] for r in json.loads((tmp_path / "r.json").read_text())["rows"]}
+    assert rows == {"gap=1,ego_speed=21": "fail", "gap=1,ego_speed=25": "fail",
+                    "gap=8,ego_speed=21": "pass", "gap=8,ego_speed=25": "pass"}  # fmt: skip
+
+
+def test_the_sweep_benchmark_runs_and_every_engine_agrees(capsys: pytest.CaptureFixture[str]) -> None:
+    sys.path.insert(0, str(ROOT))  # benchmarks/ is beside the package (see test_benchmarks_smoke)
+    from benchmarks import sweep as bench
+
+    assert bench.main(["--variations", "30", "--repeats", "1", "--no-dask"]) == 0  # asserts equal verdicts itself
+    out = capsys.readouterr().out
+    assert "fig1 sweep: 30 variations" in out and "local --jobs 2" in out and "speed-up 1 -> 2" in out

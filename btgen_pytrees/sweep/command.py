@@ -23,10 +23,10 @@ from ..leaves import default_registry
 from ..errors import InvalidTestCase, Problem
 from ..output import commit, write_file
 from .case import MAX_VARIATIONS, Sweep, Variation, load_sweep
-from .jobs import VariationOutcome, job_run_shipped, job_variation
+from .jobs import ChunkOutcome, VariationOutcome, chunk_size, job_chunk, job_run_shipped
 from .report import SweepReport
 
-__all__ = ["run_sweep", "dask_batch_args", "cmd_expand", "file_name", "make_executor", "sweep_report", "Refused"]
+__all__ = ["run_sweep", "run_variations", "dask_batch_args", "cmd_expand", "file_name", "make_executor", "sweep_report", "Refused"]
 
 EXIT_OK, EXIT_FAIL, EXIT_INVALID = 0, 1, 2
 _UNSAFE = re.compile(r"[^A-Za-z0-9._=,+\-\[\]]")
@@ -110,6 +110,31 @@ def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequen
     return report
 
 
+def run_variations(sweep: Sweep, variations: Sequence[Variation], plugins: tuple[str, ...], system: Any,
+                   workers: int, executor: Any = None, progress: Any = None) -> list[batch.Outcome]:  # fmt: skip
+    """Run *variations*; one outcome per variation, in order.
+
+    On the local pool, variations go to the workers in chunks (:func:`~.jobs.chunk_size`:
+    about 8 per worker, at most 32 runs each), so the cost of handing a task to a
+    process is paid once per chunk; a worker that dies costs its chunk (each of its
+    variations gets the error). A :class:`~.executors.DaskExecutor` chunks by itself.
+
+    Raises:
+        batch.Interrupted: Ctrl-C; its ``finished`` tells how many variations had run.
+    """
+    size = chunk_size(len(variations), workers) if executor is None else 1
+    chunks = [variations[k:k + size] for k in range(0, len(variations), size)]
+    names = [c[0].label if len(c) == 1 else f"variations {c[0].index + 1}-{c[-1].index + 1}" for c in chunks]
+    job_args = [(plugins, sweep.source, [(v.label, v.document) for v in c], system) for c in chunks]
+    try:
+        done = batch.process(job_chunk, job_args, names, workers=workers, progress=progress, executor=executor)
+    except batch.Interrupted as stop:
+        stop.finished = sum(len(c) for c, o in zip(chunks, stop.outcomes) if o.code != batch.NOT_RUN)  # type: ignore[attr-defined]
+        raise
+    return [part for c, o in zip(chunks, done)
+            for part in (o.parts if isinstance(o, ChunkOutcome) else [o] * len(c))]  # a lost chunk: each its error
+
+
 def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = None) -> int:
     """``run CASE`` for a case with variations; exit 0 all pass, 1 any did not, 2 invalid (nothing ran).
 
@@ -122,15 +147,12 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
             raise Refused(f"--{option} shows a single run; a sweep has many (run one variation from 'expand')")
     sweep = _load(args, data, system)
     executor = make_executor(args)
-    plugins = tuple(args.plugin or ())
     variations = list(sweep)
-    job_args = [(plugins, sweep.source, v.document, system) for v in variations]
     try:
-        outcomes = batch.process(job_variation, job_args, [v.label for v in variations], workers=args.jobs,
-                                 progress=batch.progress_stream(), executor=executor)  # fmt: skip
+        outcomes = run_variations(sweep, variations, tuple(args.plugin or ()), system, args.jobs, executor,
+                                  batch.progress_stream())  # fmt: skip
     except batch.Interrupted as stop:
-        finished = sum(1 for o in stop.outcomes if o.code != batch.NOT_RUN)
-        print(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {finished} of "
+        print(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {stop.finished} of "
               f"{len(variations)} variations; nothing written", file=sys.stderr)  # fmt: skip
         return 128 + stop.signum
     finally:

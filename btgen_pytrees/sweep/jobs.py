@@ -17,7 +17,7 @@ from typing import Any, Mapping, Sequence
 from ..batch import Outcome
 from ..leaves import Registry
 
-__all__ = ["VariationOutcome", "job_variation", "job_run_shipped", "row_of", "margin_of"]
+__all__ = ["VariationOutcome", "ChunkOutcome", "job_variation", "job_chunk", "chunk_size", "job_run_shipped", "row_of", "margin_of"]
 
 
 @dataclass
@@ -108,3 +108,29 @@ def job_run_shipped(path: str, plugins: Sequence[str], raw: bytes | None, proble
     word = "" if report.verdict in ("pass", "fail") else report.verdict.upper()
     return Outcome(path, 0 if report.passed else 1, line, result=word, outputs=outputs,
                    junit=report.to_junit() if junit else "")  # fmt: skip
+
+
+@dataclass
+class ChunkOutcome(Outcome):
+    """The outcomes of several variations run by one task (:func:`job_chunk`), in order."""
+
+    parts: list[Outcome] = field(default_factory=list)
+
+
+def job_chunk(label: str, plugins: Sequence[str], source: str, items: Sequence[tuple[str, Mapping[str, Any]]],
+              system: Any = None) -> ChunkOutcome:  # fmt: skip
+    """Run several variations in one task, each guarded on its own (one's error is not the others').
+
+    A run takes milliseconds, about what handing a task to a worker process costs;
+    a chunk pays that once for all its runs.
+    """
+    from ..batch import _guard
+
+    parts = [_guard(job_variation, name, plugins, source, document, system) for name, document in items]
+    return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} variations", parts=parts)
+
+
+def chunk_size(n: int, workers: int, per_worker: int = 8, most: int = 32) -> int:
+    """Runs per task: about *per_worker* tasks per worker, at most *most* runs each (a worker that
+    dies costs its task's runs), at least one."""
+    return max(1, min(most, -(-n // max(1, workers * per_worker))))

@@ -67,7 +67,7 @@ def measure(data: dict[str, Any], source: str, repeats: int, dask: bool = True) 
     check = time.perf_counter() - start
     variations = list(sweep)
     n = len(variations)
-    plugins = ("btgen_pytrees.systems.sumo",) if "sumo" in json.dumps(data.get("system", {})) else ()
+    plugins: tuple[str, ...] = ()
 
     def engine(workers: int, executor: Any = None) -> Callable[[], Any]:
         return lambda: run_variations(sweep, variations, plugins, None, workers, executor)  # what `run` does

@@ -330,7 +330,7 @@ def test_the_sumo_cut_in_sweep_fails_where_the_gap_is_small_and_the_speed_high(t
         (tmp_path / name).write_bytes((ROOT / "examples" / "sumo" / name).read_bytes())
     path = tmp_path / "sweep.json"
     path.write_text(json.dumps(data))
-    result = cli("run", str(path), "--plugin", "btgen_pytrees.systems.sumo", "--jobs", "2", "--json", str(tmp_path / "r.json"))
+    result = cli("run", str(path), "--jobs", "2", "--json", str(tmp_path / "r.json"))
     assert result.returncode == 1, result.stderr
     rows = {r["label"]: r["verdict"] for r in json.loads((tmp_path / "r.json").read_text())["rows"]}
     assert rows == {"gap=1,ego_speed=21": "fail", "gap=1,ego_speed=25": "fail",

@@ -344,3 +344,12 @@ def test_the_sweep_benchmark_runs_and_every_engine_agrees(capsys: pytest.Capture
     assert bench.main(["--variations", "30", "--repeats", "1", "--no-dask"]) == 0  # asserts equal verdicts itself
     out = capsys.readouterr().out
     assert "fig1 sweep: 30 variations" in out and "local --jobs 2" in out and "speed-up 1 -> 2" in out
+
+
+def test_every_variation_must_fit_the_work_budget(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "work.json"
+    path.write_text(json.dumps(swept({"dt": 0.1}, {"dt": [0.1, 0.01]}, entry("A"), tick="$dt", timeout=10)))
+    result = cli("run", str(path), "--max-work", "5000", "--json", str(tmp_path / "r.json"))
+    assert result.returncode == 2 and not (tmp_path / "r.json").exists()
+    assert "/timeout: the run would do 1001 ticks" in result.stderr and "(in variation: [dt=0.01])" in result.stderr
+    assert cli("run", str(path), "--max-work", "20000").returncode == 0

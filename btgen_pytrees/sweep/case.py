@@ -141,7 +141,7 @@ def nominal(data: dict[str, Any], source: str) -> dict[str, Any]:
 
 def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Registry | None = None,
                max_variations: int = MAX_VARIATIONS, check_all: bool = True, source_name: str | None = None,
-               system: Any = None) -> Sweep:  # fmt: skip
+               system: Any = None, max_work: int | None = None) -> Sweep:  # fmt: skip
     """Load a sweep and check it completely before anything runs.
 
     Args:
@@ -149,6 +149,7 @@ def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: 
         check_all: validate every variation (else only the template and the defaults)
         source_name: the file name for messages when *source* is already parsed data
         system: replaces the case's ``system`` (``run --system``), as for :func:`btgen_pytrees.load`
+        max_work: the work budget each variation's run must fit (default :data:`~btgen_pytrees.loader.MAX_WORK`)
 
     Raises:
         InvalidTestCase: the template's, the limit's and every variation's problems.
@@ -173,24 +174,25 @@ def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: 
     too_many = count_problem(data, max_variations)
     if too_many is not None:
         raise InvalidTestCase([too_many], name)
-    _check_variations(sweep, registry, check_all, system)
+    _check_variations(sweep, registry, check_all, system, max_work)
     return sweep
 
 
-def _check_variations(sweep: Sweep, registry: Registry, every: bool, system: Any = None) -> None:
+def _check_variations(sweep: Sweep, registry: Registry, every: bool, system: Any = None,
+                      max_work: int | None = None) -> None:  # fmt: skip
     """Validate the defaults' case and every variation; each distinct problem once.
 
     A problem all variations share is reported as it is; one that only some have
     (or only the defaults) says how many and names the first.
     """
-    from ..loader import validate
+    from ..loader import MAX_WORK, check_work, validate
 
     seen: dict[Problem, list[str]] = {}
     defaults = "the defaults"
     cases = [(defaults, sweep.document(sweep.defaults) if sweep.sites or "parameters" in sweep.template else sweep.template)]
     for label_, document in cases + ([(v.label, v.document) for v in sweep] if every else []):
         try:
-            validate(document, sweep.source, registry, system)
+            check_work(validate(document, sweep.source, registry, system), MAX_WORK if max_work is None else max_work)
         except InvalidTestCase as error:
             for problem in error.problems:
                 seen.setdefault(problem, []).append(label_)

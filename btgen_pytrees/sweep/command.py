@@ -51,7 +51,8 @@ def _load(args: argparse.Namespace, data: Mapping[str, Any] | None = None, syste
     source = args.file
     limit = args.max_variations if args.max_variations is not None else MAX_VARIATIONS
     registry = default_registry(args.plugin or ())
-    return load_sweep(data if data is not None else source, registry=registry, max_variations=limit, source_name=source, system=system)
+    return load_sweep(data if data is not None else source, registry=registry, max_variations=limit, source_name=source, system=system,
+                      max_work=getattr(args, "max_work", None))  # fmt: skip
 
 
 def cmd_expand(args: argparse.Namespace) -> int:
@@ -193,7 +194,7 @@ def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequenc
             problems: list[Problem] = []
         except InvalidTestCase as error:
             raw, problems = None, list(error.problems)
-        return (plugins, raw, problems, targets[i], plot, bool(args.junit), system)
+        return (plugins, raw, problems, targets[i], plot, bool(args.junit), system, getattr(args, "max_work", None))
 
     return executor, job_run_shipped, job_args
 

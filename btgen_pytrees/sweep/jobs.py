@@ -81,7 +81,8 @@ def job_variation(label: str, plugins: Sequence[str], source: str, document: Map
 
 
 def job_run_shipped(path: str, plugins: Sequence[str], raw: bytes | None, problems: Sequence[Any],
-                    target: str | None, plot: str | None = None, junit: bool = False, system: Any = None) -> Outcome:  # fmt: skip
+                    target: str | None, plot: str | None = None, junit: bool = False, system: Any = None,
+                    max_work: int | None = None) -> Outcome:  # fmt: skip
     """``run`` of one file of a batch on a cluster: the file's bytes travel with the task.
 
     Like :func:`btgen_pytrees.batch.job_run`, whose outputs (report, JUnit, plot)
@@ -89,13 +90,14 @@ def job_run_shipped(path: str, plugins: Sequence[str], raw: bytes | None, proble
     file found on the client (then *raw* is None).
     """
     from ..errors import InvalidTestCase
-    from ..loader import parse_json, validate
+    from ..loader import MAX_WORK, check_work, parse_json, validate
     from ..run import run
 
     if raw is None:
         raise InvalidTestCase(problems, path)
     registry = _registry(tuple(plugins))
     case = validate(parse_json(raw, path), path, registry, system)
+    check_work(case, MAX_WORK if max_work is None else max_work)
     report = run(case, registry=registry)
     outputs: list[tuple[str, str | bytes]] = []
     if target is not None:

@@ -353,3 +353,44 @@ def test_every_variation_must_fit_the_work_budget(tmp_path: pathlib.Path) -> Non
     assert result.returncode == 2 and not (tmp_path / "r.json").exists()
     assert "/timeout: the run would do 1001 ticks" in result.stderr and "(in variation: [dt=0.01])" in result.stderr
     assert cli("run", str(path), "--max-work", "20000").returncode == 0
+
+
+DYING_PLUGIN = '''
+import os
+import py_trees
+from py_trees.common import Status
+
+
+class Leaf(py_trees.behaviour.Behaviour):
+    def __init__(self, entry, env):
+        super().__init__(name=entry.name)
+        self.when = entry.params.get("when")
+
+    def update(self):
+        if self.when == 3:
+            os._exit(0)  # kills the worker process, as a crashing simulator would
+        if self.when == 5:
+            raise SystemExit(0)
+        return Status.SUCCESS
+
+
+def register(registry):
+    registry.register("maybe_die", lambda entry, env: Leaf(entry, env), kind="behavior")
+'''
+
+
+def test_a_dying_worker_costs_its_chunk_and_a_raising_leaf_only_its_variation(tmp_path: pathlib.Path) -> None:
+    (tmp_path / "dying_plugin.py").write_text(DYING_PLUGIN)
+    data = swept({"w": 0}, {"w": list(range(1, 41))}, entry("A", action="maybe_die", when="$w"))
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(data))
+    result = cli("run", str(path), "--plugin", str(tmp_path / "dying_plugin.py"), "--jobs", "2", "--json", str(tmp_path / "r.json"))
+    assert result.returncode == 1, result.stderr
+    rows = json.loads((tmp_path / "r.json").read_text())["rows"]
+    assert len(rows) == 40 and [r["label"] for r in rows] == [f"w={k}" for k in range(1, 41)]  # complete, in order
+    verdicts = {r["label"]: r["verdict"] for r in rows}
+    # chunks of 3 variations (40 over 2 workers x 8): w=3 kills the worker running w=1..3
+    assert [verdicts[f"w={k}"] for k in (1, 2, 3)] == ["error"] * 3
+    assert "worker process exited" in rows[2]["message"]
+    assert verdicts["w=5"] == "error" and "SystemExit" in rows[4]["message"]
+    assert verdicts["w=4"] == verdicts["w=6"] == "pass" and list(verdicts.values()).count("pass") == 36

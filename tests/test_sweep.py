@@ -259,6 +259,8 @@ def test_run_sweep_exit_codes_and_refusals(tmp_path: pathlib.Path) -> None:
     over = cli("run", str(FIG1_SWEEP), "--max-variations", "10", "--json", str(tmp_path / "r.json"))
     assert over.returncode == 2 and "28 variations; the limit is 10" in over.stderr
     assert not (tmp_path / "r.json").exists()
+    zero = cli("run", str(FIG1_SWEEP), "--max-variations", "0")
+    assert zero.returncode == 2 and "--max-variations 0: must be at least 1" in zero.stderr
     for extra, message in ((["--trace"], "--trace"), (["--plot", str(tmp_path / "m.pdf")], ".svg, .png or .html"),
                            (["--executor", "dask"], "--scheduler")):  # fmt: skip
         result = cli("run", str(ok), *extra)

@@ -50,6 +50,8 @@ def file_name(name: str, label: str, index: int) -> str:
 def _load(args: argparse.Namespace, data: Mapping[str, Any] | None = None, system: Any = None) -> Sweep:
     source = args.file
     limit = args.max_variations if args.max_variations is not None else MAX_VARIATIONS
+    if limit < 1:
+        raise Refused(f"--max-variations {limit}: must be at least 1")
     registry = default_registry(args.plugin or ())
     return load_sweep(data if data is not None else source, registry=registry, max_variations=limit, source_name=source, system=system,
                       max_work=getattr(args, "max_work", None))  # fmt: skip

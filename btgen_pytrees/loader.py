@@ -119,11 +119,13 @@ class _DuplicateKey(ValueError):
 
 
 def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    obj: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in obj:
-            raise _DuplicateKey(key)
-        obj[key] = value
+    obj = dict(pairs)  # in C; a key seen twice makes the dict shorter than the pairs
+    if len(obj) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise _DuplicateKey(key)
+            seen.add(key)
     return obj
 
 
@@ -485,19 +487,45 @@ class _Checker:
         criteria_ids = {c["id"] for c in raw_criteria}
         default_join = self.data.get("join", "any")
         entries = []
+        # (kind, action, params) -> the frozen params, for leaves whose check of those params was
+        # path-independent and clean: entries sharing params (most: {"duration": 0.1}) are checked
+        # once and share one read-only mapping
+        checked: dict[Any, Mapping[str, Any]] = {}
         for i, raw in enumerate(raw_entries):
             after = self._after(i, raw, execute_ids, criteria_ids)
+            kind, action, params = raw["kind"], raw["action"], raw.get("params")
+            key = _params_key(kind, action, params)
+            frozen = checked.get(key) if key is not None else None
+            if frozen is not None:
+                expressions = EMPTY
+            else:
+                before = len(self.problems)
+                compiled = self._leaf(("execute", i), kind, action, params if params is not None else {})
+                frozen = _frozen(params)
+                expressions = _frozen(compiled)
+                if key is not None and not compiled and len(self.problems) == before and self._plain(kind, action, params):
+                    checked[key] = frozen
             entries.append(Entry(
-                id=raw["id"], kind=raw["kind"], action=raw["action"],
-                params=_frozen(raw.get("params")), after=after,
+                id=raw["id"], kind=kind, action=action, params=frozen, after=after,
                 join=raw.get("join", default_join), name=raw.get("name", raw["id"]), index=i,
-                expressions=_frozen(self._leaf(("execute", i), raw["kind"], raw["action"], raw.get("params", {}))),
+                expressions=expressions,
             ))  # fmt: skip
         return entries
 
+    def _plain(self, kind: str, action: str | None, params: Mapping[str, Any] | None) -> bool:
+        """Whether *params* of this leaf hold no signal name or expression (so its check is path-independent)."""
+        leaf = self.registry.get(kind, action)
+        return leaf is not None and not any(name in (params or {}) for name in (*leaf.signals, *leaf.expressions))
+
     def _after(self, i: int, raw: Mapping[str, Any], execute_ids: set[str], criteria_ids: set[str]) -> tuple[str, ...]:
+        listed = raw.get("after")
+        if not listed:
+            return ()
+        preds = tuple(listed)
+        if raw["id"] not in preds and len(set(preds)) == len(preds) and execute_ids.issuperset(preds):
+            return preds  # the common case: every item names another execute entry, once
         seen: dict[str, None] = {}  # ordered, O(1) membership
-        for k, pred in enumerate(raw.get("after", [])):
+        for k, pred in enumerate(preds):
             path = ("execute", i, "after", k)
             if pred == raw["id"]:
                 self.add(path, f"{pred!r} cannot come after itself", "graph")
@@ -608,9 +636,13 @@ class _Checker:
 def _acyclic(entries: list[Entry]) -> bool:
     """Kahn's algorithm over plain dicts: can every entry be ordered after its predecessors?
 
+    First, in one pass, the usual case: every ``after`` names an entry above it.
     A quick yes/no for the common, valid case; networkx describes the cycles when
     there are some (see :meth:`_Checker.cycles`).
     """
+    index = {e.id: e.index for e in entries}
+    if all(index[p] < e.index for e in entries for p in e.after):
+        return True  # every entry names only entries above it: file order is an order
     waiting = {e.id: len(e.after) for e in entries}
     successors: dict[str, list[str]] = {}
     for e in entries:
@@ -632,6 +664,22 @@ def _cycle_through(graph: nx.DiGraph, start: str) -> list[str]:
     """A cycle through *start* in a strongly connected *graph*, written pred -> succ."""
     path = nx.shortest_path(graph, start, next(iter(graph.pred[start])))
     return [*path, start]
+
+
+def _params_key(kind: str, action: str | None, params: Mapping[str, Any] | None) -> Any:
+    """A hashable key for a leaf's *params* made of scalars (``None`` otherwise).
+
+    Each value's type is part of the key: ``1``, ``1.0`` and ``True`` are equal
+    in Python but not to a JSON Schema.
+    """
+    if not params:
+        return (kind, action)
+    try:
+        key = (kind, action, *((k, v.__class__, v) for k, v in params.items()))
+        hash(key)
+    except TypeError:  # a list or object value
+        return None
+    return key
 
 
 def _frozen(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:

@@ -116,7 +116,9 @@ class _Walk:
     entries a trigger waits for is decided where the row walk reaches them.
     """
 
-    def __init__(self, graph: nx.DiGraph, env: Environment, registry: Registry, depth: int, max_depth: int):
+    def __init__(self, graph: nx.DiGraph, env: Environment, registry: Registry, depth: int, max_depth: int,
+                 consume: bool = False):  # fmt: skip
+        self.consume = consume
         self.succ: dict[str, dict[str, Any]] = graph._succ
         self.pred: dict[str, dict[str, Any]] = graph._pred
         self.entry_of: dict[str, dict[str, Any]] = graph._node
@@ -145,6 +147,8 @@ class _Walk:
         stack: list[tuple[Sequence, str, int]] = []
         if fork_of is not None:
             self.fork(_ChainWriter(seq, level), fork_of, self.singles(fork_of), stack)
+            if self.consume:
+                del self.succ[fork_of]
         else:
             stack.append((seq, first, level))
         while stack:
@@ -157,6 +161,10 @@ class _Walk:
                 hoist = len(singles) > 1 and out.level + 4 > self.max_depth
                 # a successor with other predecessors is a join, whose trigger waits for v
                 out.add(self.leaf(v, wrap=hoist or len(singles) != len(successors)))
+                if self.consume:  # v's leaf and row are done: drop them from the graph (a hoisted fork reads its row later)
+                    del self.entry_of[v]
+                    if not hoist:
+                        del self.succ[v]
                 if not singles:
                     break
                 if hoist:
@@ -210,6 +218,7 @@ def execute_subtree(
     *,
     depth: int = EXECUTE_DEPTH,
     max_depth: int = MAX_DEPTH,
+    consume: bool = False,
 ) -> Parallel:
     """Build the execute subtree of *graph* (Algorithm 1).
 
@@ -219,7 +228,11 @@ def execute_subtree(
         registry: where entry leaves come from
         depth: the level the returned Parallel will sit at in the full tree
         max_depth: deepest level a node may reach (see :data:`MAX_DEPTH`)
+        consume: the graph is the caller's to throw away: the walk drops each
+            entry's attributes and successors from it once it has used them, so
+            the graph shrinks while the tree grows (:func:`~.tree.generate`,
+            which builds its own graph, passes True; the graph is left broken)
     """
     if max_depth < depth + 8:
         raise ValueError(f"max_depth must be at least {depth + 8}")
-    return _Walk(graph, env, registry, depth, max_depth).build()
+    return _Walk(graph, env, registry, depth, max_depth, consume).build()

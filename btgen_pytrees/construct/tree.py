@@ -59,7 +59,7 @@ def generate(
     env = Environment(namespace or unique_namespace(case.name), clock, case.signals)
     graph = timeline(case)
     try:
-        walked = execute_subtree(graph, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth)
+        walked = execute_subtree(graph, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth, consume=True)
     finally:
         graph.clear()  # networkx caches views that refer back to the graph: free it now, not at the next gc
     execute = Completion(walked, env, marks=EXECUTE, name="execute")

@@ -266,8 +266,8 @@ def _worker(conn: Connection) -> None:
     let the parent decide (it stops them with SIGTERM, then SIGKILL).
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _stop)
     try:
+        signal.signal(signal.SIGTERM, _stop)
         while True:
             try:
                 task = conn.recv()
@@ -279,6 +279,8 @@ def _worker(conn: Connection) -> None:
             conn.send((index, _guard(job, path, *args)))
     except (_Stop, BrokenPipeError):
         return
+    finally:  # leaving: a late SIGTERM must end the process quietly, not raise in multiprocessing's exit code
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _death(exitcode: int | None) -> str:
@@ -306,12 +308,21 @@ class _Slot:
         self.task: int | None = None
 
 
-def _stop_all(slots: list[_Slot], grace: float = 0.5) -> None:
-    """Stop every worker: SIGTERM (finally blocks run, temporary files go), SIGKILL after *grace*."""
+def _stop_all(slots: list[_Slot], grace: float = 0.5, *, asked: bool = False) -> None:
+    """Stop every worker: SIGTERM (finally blocks run, temporary files go), SIGKILL after *grace*.
+
+    With *asked* the workers were already told to leave (sent ``None``): they get
+    *grace* seconds to exit on their own before the signals, so a worker that is
+    already on its way out is never interrupted in the middle of it.
+    """
+    deadline = time.monotonic() + grace
+    if asked:
+        for slot in slots:
+            slot.process.join(max(0.0, deadline - time.monotonic()))
+        deadline = time.monotonic() + 0.5
     for slot in slots:
         if slot.process.is_alive():
             slot.process.terminate()
-    deadline = time.monotonic() + grace
     for slot in slots:
         slot.process.join(max(0.0, deadline - time.monotonic()))
         if slot.process.is_alive():
@@ -434,7 +445,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                 slot.conn.send(None)
             except OSError:
                 pass
-        _stop_all(slots, grace=2.0)
+        _stop_all(slots, grace=2.0, asked=True)
     if progress is not None:
         progress.write("\n")
     return [r for r in results if r is not None]

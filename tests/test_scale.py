@@ -86,3 +86,27 @@ def test_long_chain_is_split_into_parts() -> None:
 def test_matrix_goes_sparse_when_large() -> None:
     text = render(btgen_pytrees.generate(btgen_pytrees.load(comb(150))), timeline(btgen_pytrees.load(comb(150))), "matrix")
     assert text.splitlines()[1] == "S0: C0 S1" and text.startswith("# adjacency matrix of 300 entries")
+
+
+def test_depth_bound_counts_the_part_sequence_of_a_long_branch() -> None:
+    """Issue 10, defect 9: a >CHUNK chain in the deepest branch, its last leaf waited on by a join.
+
+    Forks nest the branch Sequences two levels apart (6, 8, ..., 98); the chain after the 46th
+    fork goes into part Sequences one level deeper, and its last leaf is wrapped in a Completion:
+    it sat at level 101 when the hoisting rule reserved only four levels below a fork.
+    """
+    forks = 46
+    entries = []
+    for k in range(forks + 1):
+        entries.append(entry(f"A{k}", [f"A{k - 1}"] if k else [], duration=0))
+        if k < forks:
+            entries.append(entry(f"X{k}", [f"A{k}"], duration=0))
+    previous = f"A{forks}"
+    for i in range(CHUNK + 44):
+        entries.append(entry(f"L{i}", [previous], duration=0))
+        previous = f"L{i}"
+    entries.append(entry("J", [previous, "X0"], join="all", duration=0))
+    loaded = btgen_pytrees.load(case(*entries))
+    assert depth(btgen_pytrees.generate(loaded)) <= MAX_DEPTH
+    report = run(loaded)
+    assert report.verdict == "pass" and {e.id: e.start for e in report.execute}["J"] == 0.0

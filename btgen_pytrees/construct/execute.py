@@ -157,8 +157,9 @@ class _Walk:
             while True:
                 successors = self.succ[v]
                 singles = self.singles(v) if successors else []
-                # fork Parallel, branch Sequence, Completion, leaf: four more levels
-                hoist = len(singles) > 1 and out.level + 4 > self.max_depth
+                # fork Parallel, branch Sequence, part Sequence (a branch longer than CHUNK),
+                # Completion, leaf: up to five more levels
+                hoist = len(singles) > 1 and out.level + 5 > self.max_depth
                 # a successor with other predecessors is a join, whose trigger waits for v
                 out.add(self.leaf(v, wrap=hoist or len(singles) != len(successors)))
                 if self.consume:  # v's leaf and row are done: drop them from the graph (a hoisted fork reads its row later)

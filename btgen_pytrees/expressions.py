@@ -35,6 +35,7 @@ import keyword
 import math
 import re
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Mapping
 
 __all__ = ["Expression", "ExpressionError", "parse", "RESERVED", "MAX_LENGTH"]
@@ -85,6 +86,15 @@ class Expression:
     names: frozenset[str]
     _code: Any = field(repr=False, compare=False)
     _aliases: tuple[tuple[str, str], ...] = field(default=(), repr=False, compare=False)
+
+    @cached_property
+    def ordered_names(self) -> tuple[str, ...]:
+        """:attr:`names` sorted: iterate this where the order shows in an output.
+
+        A frozenset's iteration order depends on ``PYTHONHASHSEED``; dicts of values
+        built from it would put keys in a different order in every process.
+        """
+        return tuple(sorted(self.names))
 
     def evaluate(self, values: Mapping[str, Any]) -> Any:
         """Evaluate against signal *values*.

@@ -72,7 +72,7 @@ class Oracle(py_trees.behaviour.Behaviour):
     def check(self, now: float) -> bool:
         """Evaluate ``expect`` now; remember the values; on failure record the outcome."""
         expect = self.criterion.expect
-        values = self.env.values(expect.names)
+        values = self.env.values(expect.ordered_names)
         if (not self.samples or self.samples[-1][1] != values) and len(self.samples) < MAX_SAMPLES:
             self.samples.append((now, values))
         try:

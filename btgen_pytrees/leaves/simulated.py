@@ -109,7 +109,7 @@ class Until(SimulatedLeaf):
 
     def update(self) -> Status:
         expect = self.entry.expressions["expect"]
-        values = self.env.values(expect.names)
+        values = self.env.values(expect.ordered_names)
         why = ""
         try:
             ok = bool(expect.evaluate(values))

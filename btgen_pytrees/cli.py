@@ -445,7 +445,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_work(case, args.max_work)  # before anything runs: bounded work for any valid input
     logged = _btlog_tree(args, case, registry)
     trace = (lambda line: _err(line)) if args.trace else None
-    report = run(case, registry=registry, trace=trace)
+    report = run(case, registry=registry, trace=trace, require_complete=args.require_complete or None)
     outputs: list[tuple[str, str | bytes]] = []
     if args.json:
         outputs.append((args.json, report.to_json()))
@@ -536,6 +536,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
     run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML (several files: one file, a testsuite per case)")
+    run.add_argument("--require-complete", action="store_true",
+                     help="fail a run that passes before every entry has run to success (as the case key require_complete)")
     run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")
     run.add_argument("--system", metavar="TYPE[:CONFIG]", help="run against this system instead of the case's own (CONFIG relative to the current directory); checked like the case's 'system'")
     run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")

@@ -803,6 +803,7 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
         relation=MappingProxyType({"record": relation.get("record", "&&"), "others": relation.get("others", "&&")}),
         source=source,
         system=checker.spec,
+        require_complete=bool(data.get("require_complete", False)),
     )
 
 

@@ -14,12 +14,21 @@ from typing import Any, Mapping
 from .expressions import Expression
 from .systems.base import SystemSpec
 
-__all__ = ["Entry", "Criterion", "TestCase", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES"]
+__all__ = ["Entry", "Criterion", "TestCase", "label", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES"]
 
 BEHAVIOR = "behavior"
 CONSTRAINT = "constraint"
 CRITERION_TYPES = ("record", "period", "final")
 EMPTY: Mapping[str, Any] = MappingProxyType({})
+
+
+def label(id: str, name: str) -> str:
+    """``id``, or ``id (name)`` when a ``name`` other than the id was given.
+
+    >>> label("B3", "B3"), label("B3", "accelerate")
+    ('B3', 'B3 (accelerate)')
+    """
+    return id if not name or name == id else f"{id} ({name})"
 
 
 @dataclass(frozen=True, eq=False, slots=True)
@@ -52,6 +61,11 @@ class Entry:
     def path(self) -> tuple[str | int, ...]:
         return ("execute", self.index)
 
+    @property
+    def label(self) -> str:
+        """How reports name the entry: its id, and its ``name`` in parentheses when it has one."""
+        return label(self.id, self.name)
+
 
 @dataclass(frozen=True, eq=False, slots=True)
 class Criterion:
@@ -83,6 +97,11 @@ class Criterion:
     def path(self) -> tuple[str | int, ...]:
         return ("oracle", "criteria", self.index)
 
+    @property
+    def label(self) -> str:
+        """How reports name the criterion (see :attr:`Entry.label`)."""
+        return label(self.id, self.name)
+
 
 @dataclass(frozen=True, eq=False)
 class TestCase:
@@ -99,6 +118,7 @@ class TestCase:
         relation: ``{"record": "&&"|"||", "others": "&&"|"||"}``
         source: file name, or ``<dict>``
         system: the system under test (``simulated`` unless the case names one)
+        require_complete: a run that passes with entries unfinished fails instead
     """
 
     __test__ = False  # not a pytest class, despite the name
@@ -115,3 +135,4 @@ class TestCase:
     relation: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({"record": "&&", "others": "&&"}))
     source: str = "<dict>"
     system: SystemSpec = SystemSpec()
+    require_complete: bool = False

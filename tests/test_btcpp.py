@@ -93,12 +93,12 @@ def check_node(node: py_trees.behaviour.Behaviour, element: ET.Element,
     entry_ = getattr(node, "btgen_entry", None)
     criterion = getattr(node, "btgen_criterion", None)
     if entry_ is not None:
-        assert element.tag == "Action" and attrs.pop("name") == entry_.id and attrs.pop("ID") == entry_.action
+        assert element.tag == "Action" and attrs.pop("name") == entry_.label and attrs.pop("ID") == entry_.action
         assert attrs == dict(zip(port_names(list(entry_.params)), map(port_value, entry_.params.values())))
         assert models[("Action", entry_.action)] >= set(attrs)
         return None
     if criterion is not None:
-        assert element.tag == "Action" and attrs.pop("name") == criterion.id
+        assert element.tag == "Action" and attrs.pop("name") == criterion.label
         assert attrs.pop("ID") == (criterion.action or criterion.type.capitalize())
         expected = {"expect": criterion.expect.source}
         for key, value in (("from", criterion.start), ("to", criterion.end), ("at", criterion.at)):
@@ -172,7 +172,8 @@ def test_joins_forks_or_groups_and_odd_params(relation: str) -> None:
     assert b.get("p_name") == "1" and b.get("p_my_param") == 'a<b&"c"' and b.get("p_ID") == "[1,2]"
     assert b.get("p_name_") == '{"k":null}'
     assert document.find(".//Action[@name='A']").get("value") == "true"
-    assert document.find(".//Action[@name='K']") is not None  # leaves are named by id, not display name
+    # leaves are named by id and display name (issue 10, defect 8); the id is the text before the first space
+    assert document.find(""".//Action[@name='K (K: the "end")']""") is not None
     if relation == "||":
         assert len(document.find("BehaviorTree").findall(".//Decorator[@ID='OrMember']")) == 3
 

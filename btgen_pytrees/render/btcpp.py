@@ -23,7 +23,8 @@ How py_trees maps (``docs/views.md`` says exactly what differs):
 * every leaf is an ``<Action>``, also constraints and oracles: they stay
   RUNNING over many ticks and must be halted when the run ends, and a BT.CPP
   ``Condition`` can do neither (its ``halt()`` is final and does nothing). An
-  entry's leaf is named by its id and carries its ``params`` as ports; a
+  entry's leaf is named by its id (and its ``name`` label in parentheses, if
+  it has one) and carries its ``params`` as ports; a
   criterion's carries ``expect``, ``from``/``to``/``at`` and its params.
 * the generator's wiring keeps its class name: ``Trigger`` (ports
   ``waits_for``, ``join``), ``RunStart``, and the decorators ``Completion``
@@ -198,7 +199,7 @@ class _Export:
         if entry is not None:
             ports = [_Port(k, v, f"param {k!r} of the {entry.kind}") for k, v in entry.params.items()]
             return self.custom(parent, "Action", (entry.kind, entry.action), entry.action,
-                               f"{entry.kind} action {entry.action!r} (execute entry)", entry.id, ports)  # fmt: skip
+                               f"{entry.kind} action {entry.action!r} (execute entry)", entry.label, ports)  # fmt: skip
         criterion = getattr(node, "btgen_criterion", None)
         if criterion is not None:
             return self.criterion(parent, criterion)
@@ -233,7 +234,7 @@ class _Export:
         preferred = criterion.action or criterion.type.capitalize()
         what = f"{criterion.type} criterion" + (f" action {criterion.action!r}" if criterion.action else "")
         return self.custom(parent, "Action", (criterion.type, criterion.action or ""), preferred,
-                           f"oracle: {what}", criterion.id, ports)  # fmt: skip
+                           f"oracle: {what}", criterion.label, ports)  # fmt: skip
 
     def composite(self, parent: ET.Element, node: py_trees.behaviour.Behaviour) -> ET.Element:
         """Elements for py_trees' composites and for any other node (by its class name)."""

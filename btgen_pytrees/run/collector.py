@@ -75,7 +75,7 @@ class Collector(py_trees.visitors.VisitorBase):
         self.ordered: list[EntryResult] = []
         for _, node in self._nodes:
             entry = node.btgen_entry  # type: ignore[attr-defined]
-            result = EntryResult(entry.id, entry.kind)
+            result = EntryResult(entry.id, entry.kind, name=entry.name)
             self.results[id(node)] = result
             self.ordered.append(result)
         self.ticks = 0
@@ -165,13 +165,16 @@ class Collector(py_trees.visitors.VisitorBase):
             if isinstance(node, Record) and verdict in ("pass", "fail", "timeout"):
                 node.conclude(now)
             outcome: Outcome = getattr(node, "outcome", None) or Outcome()
+            group = "record" if criterion.type == "record" else "others"
             oracles.append((criterion.index, OracleResult(
                 criterion.id, criterion.type, criterion.expect.source, outcome.verdict, outcome.at,
-                outcome.message, dict(outcome.values), list(getattr(node, "samples", [])))))  # fmt: skip
+                outcome.message, dict(outcome.values), list(getattr(node, "samples", [])),
+                name=criterion.name, group=group, relation=self.case.relation.get(group, "&&"))))  # fmt: skip
         oracles.sort(key=lambda pair: pair[0])
         if verdict == "fail" and not message:
             message = _why_failed(execute, [o for _, o in oracles])
-        return Report(self.case.name, verdict, now, self.ticks, message, execute, [o for _, o in oracles])
+        return Report(self.case.name, verdict, now, self.ticks, message, execute, [o for _, o in oracles],
+                      source=self.case.source)  # fmt: skip
 
 
 def _why_failed(execute: list[EntryResult], oracles: list[OracleResult]) -> str:

@@ -16,7 +16,15 @@ from ..errors import xml_safe
 if TYPE_CHECKING:  # pragma: no cover
     from .trace import RunTrace
 
+from ..model import label
+
 __all__ = ["EntryResult", "OracleResult", "Report"]
+
+_UNFINISHED = {
+    "running": ("entry still running", "entries still running"),
+    "stopped": ("entry stopped", "entries stopped"),
+    "not-started": ("entry did not run", "entries did not run"),
+}
 
 
 @dataclass
@@ -33,11 +41,21 @@ class EntryResult:
     start: float | None = None
     end: float | None = None
     message: str = ""
+    name: str = ""
+
+    @property
+    def label(self) -> str:
+        return label(self.id, self.name)
 
 
 @dataclass
 class OracleResult:
-    """The verdict of one criterion: ``pass``, ``fail`` or ``inconclusive``."""
+    """The verdict of one criterion: ``pass``, ``fail`` or ``inconclusive``.
+
+    ``group`` is ``record`` or ``others`` (Algorithm 2's groups) and ``relation``
+    the group's ``&&``/``||``: a member of an ``||`` group may fail while its group,
+    and the run, pass.
+    """
 
     id: str
     type: str
@@ -47,6 +65,13 @@ class OracleResult:
     message: str = ""
     values: dict[str, Any] = field(default_factory=dict)
     samples: list[tuple[float, dict[str, Any]]] = field(default_factory=list, repr=False)
+    name: str = ""
+    group: str = ""
+    relation: str = "&&"
+
+    @property
+    def label(self) -> str:
+        return label(self.id, self.name)
 
 
 @dataclass
@@ -74,10 +99,50 @@ class Report:
     execute: list[EntryResult] = field(default_factory=list)
     oracles: list[OracleResult] = field(default_factory=list)
     trace: RunTrace | None = field(default=None, repr=False, compare=False)
+    source: str = "<dict>"
 
     @property
     def passed(self) -> bool:
         return self.verdict == "pass"
+
+    @property
+    def complete(self) -> bool:
+        """Whether every entry of the timeline ran to success."""
+        return all(e.status == "success" for e in self.execute)
+
+    @property
+    def incomplete(self) -> str:
+        """Why the timeline is incomplete, e.g. ``1 entry stopped, 2 entries did not run``; "" when complete.
+
+        Failed entries are not counted here: they fail the run and say so themselves.
+        """
+        counts: dict[str, int] = {}
+        for e in self.execute:
+            if e.status in _UNFINISHED:
+                counts[e.status] = counts.get(e.status, 0) + 1
+        parts = []
+        for status, (one, many) in _UNFINISHED.items():
+            n = counts.get(status, 0)
+            if n:
+                parts.append(f"{n} {one if n == 1 else many}")
+        return ", ".join(parts)
+
+    def require_complete(self) -> Report:
+        """This report, failed if it passed with an incomplete timeline (``--require-complete``)."""
+        if self.verdict != "pass" or not self.incomplete:
+            return self
+        why = f"timeline incomplete: {self.incomplete} (the case requires a complete timeline)"
+        return replace(self, verdict="fail", message=why)
+
+    def decisive(self, oracle: OracleResult) -> bool:
+        """Whether *oracle*'s verdict counts for the run.
+
+        Every member of an ``&&`` group counts. A member of an ``||`` group counts
+        unless another member of its group passed: the group passed without it.
+        """
+        if oracle.relation != "||":
+            return True
+        return not any(o.verdict == "pass" for o in self.oracles if o.group == oracle.group and o is not oracle)
 
     def to_dict(self) -> dict[str, Any]:
         data = asdict(replace(self, trace=None))
@@ -85,7 +150,11 @@ class Report:
         for oracle in data["oracles"]:
             del oracle["samples"]
             oracle["values"] = {k: _json_value(v) for k, v in oracle["values"].items()}
-        return data
+        ordered = {k: data[k] for k in ("test", "source", "verdict", "duration", "ticks", "message")}
+        ordered["timeline"] = {"complete": self.complete, "message": self.incomplete}
+        ordered["execute"] = [_name_second(e) for e in data["execute"]]
+        ordered["oracles"] = [_name_second(o) for o in data["oracles"]]
+        return ordered
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
@@ -94,13 +163,15 @@ class Report:
         """A plain-text verdict table: one row per criterion, then the execute subtree and the verdict."""
         rows = [("criterion", "type", "expect", "verdict", "at", "message")]
         for o in self.oracles:
-            rows.append((o.id, o.type, o.expect, o.verdict, _time(o.at), o.message))
+            message = o.message
+            if o.verdict != "pass" and not self.decisive(o):
+                message = f"{message} (not counted: its || group passed)" if message else "not counted: its || group passed"
+            rows.append((o.label, o.type, o.expect, o.verdict, _time(o.at), message))
         failed = [e for e in self.execute if e.status == "failure"]
-        pending = [e for e in self.execute if e.status in ("running", "not-started", "stopped")]
         if failed:
-            execute = ("execute", "", "every entry succeeds", "fail", _time(failed[0].end), f"{failed[0].id}: {failed[0].message}")
-        elif pending:
-            execute = ("execute", "", "every entry succeeds", "incomplete", "", f"{len(pending)} entries did not finish")
+            execute = ("execute", "", "every entry succeeds", "fail", _time(failed[0].end), f"{failed[0].label}: {failed[0].message}")
+        elif self.incomplete:
+            execute = ("execute", "", "every entry succeeds", "incomplete", "", self.incomplete)
         else:
             end = max((e.end for e in self.execute if e.end is not None), default=None)
             execute = ("execute", "", "every entry succeeds", "pass", _time(end), "")
@@ -108,40 +179,71 @@ class Report:
         widths = [max(len(r[i]) for r in rows) for i in range(5)]
         lines = ["  ".join(c.ljust(w) for c, w in zip(r[:5], widths)) + ("  " + r[5] if r[5] else "") for r in rows]
         lines.insert(1, "  ".join("-" * w for w in widths))
-        verdict = f"{self.test}: {self.verdict.upper()} after {self.duration:g} s ({self.ticks} ticks)"
+        verdict = f"{self.test}: {self.verdict.upper()}"
+        if self.verdict == "pass" and self.incomplete:
+            verdict += f" (timeline incomplete: {self.incomplete})"
+        verdict += f" after {self.duration:g} s ({self.ticks} ticks)"
         if self.message:
             verdict += f" - {self.message}"
         return "\n".join(line.rstrip() for line in lines) + "\n\n" + verdict + "\n"
 
-    def to_junit(self) -> str:
-        """JUnit XML: one testcase per criterion plus one for the execute subtree."""
-        suite = ET.Element("testsuite", name=self.test, tests=str(len(self.oracles) + 1), time=f"{self.duration:g}")
-        failures = errors = 0
+    def junit_suite(self) -> ET.Element:
+        """This run as one JUnit ``<testsuite>``: a testcase for the execute subtree and one per criterion.
 
-        def case(name: str, verdict: str, message: str, at: float | None) -> None:
-            nonlocal failures, errors
+        The counts agree with the verdict: ``failures + errors == 0`` exactly when
+        the run passed. A member of an ``||`` group that failed while its group
+        passed is not a failure: it is reported in the testcase's ``system-out``.
+        A criterion still undecided when the run ended is ``skipped``; so is the
+        execute testcase of a run that passed with an incomplete timeline.
+        """
+        suite = ET.Element("testsuite", name=self.test, tests=str(len(self.oracles) + 1), time=f"{self.duration:g}")
+        counts = {"failure": 0, "error": 0, "skipped": 0}
+
+        def case(name: str, outcome: str, message: str, at: float | None, out: str = "") -> None:
             el = ET.SubElement(suite, "testcase", classname=f"btgen.{self.test}", name=name,
                                time=f"{at:g}" if at is not None else "0")  # fmt: skip
-            if verdict == "fail":
-                failures += 1
-                ET.SubElement(el, "failure", message=message or "failed").text = message
-            elif verdict in ("inconclusive", "timeout", "error", "incomplete"):
-                errors += 1
-                ET.SubElement(el, "error", message=message or verdict).text = message or verdict
+            if outcome in counts:
+                counts[outcome] += 1
+                ET.SubElement(el, outcome, message=(message or outcome).split("\n")[0]).text = message or outcome
+            if out:
+                ET.SubElement(el, "system-out").text = out
 
         failed = next((e for e in self.execute if e.status == "failure"), None)
         if failed is not None:
-            case("execute", "fail", f"{failed.id}: {failed.message}", failed.end)
+            case("execute", "failure", f"{failed.label}: {failed.message}", failed.end)
         elif self.verdict in ("timeout", "error", "running"):
-            case("execute", self.verdict, self.message, self.duration)
+            case("execute", "error", self.message or self.verdict, self.duration)
+        elif self.verdict == "fail" and not any(o.verdict == "fail" and self.decisive(o) for o in self.oracles):
+            case("execute", "failure", self.message or "failed", self.duration)  # e.g. --require-complete
+        elif self.incomplete:
+            case("execute", "skipped", f"timeline incomplete: {self.incomplete}", self.duration)
         else:
             case("execute", "pass", "", self.duration)
         for o in self.oracles:
-            case(f"{o.id} ({o.type}: {o.expect})", o.verdict, o.message, o.at)
-        suite.set("failures", str(failures))
-        suite.set("errors", str(errors))
+            name = f"{o.label} ({o.type}: {o.expect})"
+            if not self.decisive(o):
+                note = f"{o.verdict}" + (f" at {o.at:g} s" if o.at is not None else "") + (f": {o.message}" if o.message else "")
+                case(name, "pass", "", o.at, f"{note}; not counted: its || group passed")
+            elif o.verdict == "fail":
+                case(name, "failure", o.message or "failed", o.at)
+            elif o.verdict == "inconclusive":
+                case(name, "skipped", o.message or "undecided when the run ended", o.at)
+            else:
+                case(name, "pass", "", o.at)
+        if self.verdict != "pass" and counts["failure"] + counts["error"] == 0:  # never green on a red run
+            counts["error"] += 1
+            el = suite.find("testcase")
+            assert el is not None
+            ET.SubElement(el, "error", message=self.verdict).text = self.message or self.verdict
+        suite.set("failures", str(counts["failure"]))
+        suite.set("errors", str(counts["error"]))
+        suite.set("skipped", str(counts["skipped"]))
+        return suite
+
+    def to_junit(self) -> str:
+        """JUnit XML (:meth:`junit_suite` in a ``<testsuites>``)."""
         root = ET.Element("testsuites")
-        root.append(suite)
+        root.append(self.junit_suite())
         ET.indent(root)
         # characters XML forbids can only sit in names and messages: escaped, the document stays well-formed
         return xml_safe(ET.tostring(root, encoding="unicode", xml_declaration=True)) + "\n"
@@ -153,6 +255,10 @@ def _json_value(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
     return value
+
+
+def _name_second(item: dict[str, Any]) -> dict[str, Any]:
+    return {"id": item["id"], "name": item["name"], **{k: v for k, v in item.items() if k not in ("id", "name")}}
 
 
 def _time(t: float | None) -> str:

@@ -70,6 +70,7 @@ def run_tree(
     system: System | None = None,
     registry: Registry | None = None,
     trace: Trace | None = None,
+    require_complete: bool | None = None,
 ) -> Report:
     """Run *root* (generated from *case*) against *system* until it finishes or times out.
 
@@ -81,6 +82,8 @@ def run_tree(
         system: a new, not started instance; default: :func:`create_system`
             for ``case.system`` from *registry* (default: the default registry)
         trace: called with one line per entry start/end
+        require_complete: a run that passes while entries are unfinished fails
+            instead (default: the case's ``require_complete``)
     """
     if system is None:
         system = create_system(case, registry)
@@ -146,10 +149,13 @@ def run_tree(
                 env.clock, env.system = saved
     report = collector.report()
     report.trace = tracer.trace
+    if case.require_complete if require_complete is None else require_complete:
+        report = report.require_complete()
     return report
 
 
-def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None) -> Report:
+def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None,
+        require_complete: bool | None = None) -> Report:  # fmt: skip
     """Generate *case*'s tree, run it against its system and return the :class:`Report`."""
     registry = registry if registry is not None else default_registry()
     try:
@@ -163,8 +169,9 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
     except BaseException as exc:  # noqa: BLE001 - a factory raised or returned a non-Behaviour
         if is_interrupt(exc):
             raise
-        return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}")
-    return run_tree(root, case, system=system, trace=trace)
+        return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}",
+                      source=case.source)
+    return run_tree(root, case, system=system, trace=trace, require_complete=require_complete)
 
 
 def _system_error(case: TestCase, exc: BaseException) -> str:

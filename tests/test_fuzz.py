@@ -691,7 +691,8 @@ def test_newline_in_key_stays_on_one_problem_line(tmp_path: pathlib.Path) -> Non
     path.write_text(json.dumps({**FIG1, "a\nb": 1}))
     result = cli("validate", str(path))
     assert result.code == 2
-    assert result.err.decode().splitlines() == [f"{path}: /a\\x0ab: unknown key 'a\\nb' (allowed: $schema, description, execute, join, name, oracle, parameters, signals, system, tick, timeout, variations)"]
+    [line] = result.err.decode().splitlines()  # the list of allowed keys grows with the format
+    assert line.startswith(f"{path}: /a\\x0ab: unknown key 'a\\nb' (allowed: $schema, description, execute, ")
 
 
 def test_a_fifo_is_refused_without_waiting(tmp_path: pathlib.Path) -> None:

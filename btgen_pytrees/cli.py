@@ -20,7 +20,7 @@ from . import batch
 from .construct import generate
 from .errors import MAX_PROBLEMS, Interrupt, InvalidTestCase, Problem, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
-from .loader import load, load_json, schema_text, validate
+from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
 from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, GraphvizMissing, render
@@ -471,7 +471,9 @@ def cmd_expand(args: argparse.Namespace) -> int:
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
-    sys.stdout.write(schema_text())
+    import json
+
+    _print(json.dumps(schema_for(_registry(args)), indent=2, ensure_ascii=False) + "\n")
     return EXIT_OK
 
 
@@ -559,7 +561,8 @@ def _parser() -> argparse.ArgumentParser:
     expand.add_argument("--max-variations", type=int, metavar="N", help="refuse more than N variations (default 10000)")
     expand.set_defaults(func=cmd_expand)
 
-    schema = sub.add_parser("schema", help="print the test case JSON Schema")
+    schema = sub.add_parser("schema", parents=[plugin],
+                            help="print the test case JSON Schema, with the params of every registered action")
     schema.set_defaults(func=cmd_schema)
     return parser
 

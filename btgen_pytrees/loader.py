@@ -40,11 +40,12 @@ import networkx as nx
 from .errors import InvalidTestCase, PathPart, Problem
 from .expressions import RESERVED, Expression, ExpressionError, parse
 from .leaves import Registry, default_registry
+from .leaves.registry import LeafType
 from .validation import SchemaValidator
 from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemInfo, SystemSpec
 
-__all__ = ["load", "load_json", "validate", "schema", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE", "MIN_TICK", "MAX_WORK",
+__all__ = ["load", "load_json", "validate", "schema", "schema_for", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE", "MIN_TICK", "MAX_WORK",
            "work", "check_work"]
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -77,6 +78,49 @@ def schema_text() -> str:
 @lru_cache(maxsize=1)
 def schema() -> Mapping[str, Any]:
     return json.loads(schema_text())
+
+
+def schema_for(registry: Registry | None = None) -> dict[str, Any]:
+    """The test-case schema with each registered action's ``params`` schema, for editors.
+
+    ``python -m btgen_pytrees schema`` prints this. Entries and criteria get one
+    ``if``/``then`` per registered leaf: *if* ``kind`` and ``action`` (a criterion:
+    ``type`` and ``action``, or no ``action``) match, *then* ``params`` must fit
+    that leaf's schema - so an editor that knows JSON Schema flags a misspelt or
+    mistyped parameter as it is typed. The loader checks the same params itself
+    (with friendlier messages), so it does not validate against this larger
+    schema.
+
+    >>> s = schema_for()
+    >>> rule = next(r for r in s["$defs"]["entry"]["allOf"] if r["if"]["properties"]["action"] == {"const": "hold"})
+    >>> rule["then"]["properties"]["params"]["required"]
+    ['duration']
+    """
+    registry = registry if registry is not None else default_registry()
+    full = json.loads(schema_text())
+    entry_rules, criterion_rules = [], []
+    for kind in ("behavior", "constraint", "record", "period", "final"):
+        actions: list[str | None] = list(registry.actions(kind))
+        if kind in ("record", "period", "final"):
+            actions.insert(0, None)
+        for action in actions:
+            leaf = registry.get(kind, action)
+            if leaf is None or leaf.params_schema is None:
+                continue
+            params = {k: v for k, v in leaf.params_schema.items() if k != "$schema"}
+            if leaf.description and "description" not in params:
+                params["description"] = leaf.description
+            then = {"properties": {"params": params}}
+            if kind in ("behavior", "constraint"):
+                rule_if: dict[str, Any] = {"properties": {"kind": {"const": kind}, "action": {"const": action}}, "required": ["kind", "action"]}
+            elif action is None:
+                rule_if = {"properties": {"type": {"const": kind}}, "required": ["type"], "not": {"required": ["action"]}}
+            else:
+                rule_if = {"properties": {"type": {"const": kind}, "action": {"const": action}}, "required": ["type", "action"]}
+            (entry_rules if kind in ("behavior", "constraint") else criterion_rules).append({"if": rule_if, "then": then})
+    full["$defs"]["entry"].setdefault("allOf", []).extend(entry_rules)
+    full["$defs"]["criterion"].setdefault("allOf", []).extend(criterion_rules)
+    return full
 
 
 def inline_refs(node: Any, root: Mapping[str, Any], depth: int = 0) -> Any:
@@ -320,33 +364,55 @@ def _resolve(data: Any, path: tuple[PathPart, ...]) -> Any:
 
 
 def _schema_problems(data: Any) -> Iterator[Problem]:
-    for error in _validator().iter_errors(data):
-        path = tuple(error.absolute_path)
+    return _described(_validator().iter_errors(data), data)
+
+
+def _described(errors: Iterable[Any], data: Any, prefix: tuple[PathPart, ...] = (), cause: str = "schema") -> Iterator[Problem]:
+    """jsonschema's *errors* about *data* (found at *prefix* in the document) in words a test author reads.
+
+    The same wording serves the test-case schema and every action's ``params`` schema:
+    unknown keys with "did you mean", missing keys, values outside an enumeration with
+    "did you mean", negative durations, and a schema's ``description`` where it says
+    what was expected.
+    """
+    for error in errors:
+        path = (*prefix, *error.absolute_path)
         keyword = error.validator
         if keyword == "additionalProperties" and isinstance(error.instance, dict):
             allowed = sorted(error.schema.get("properties", {}))
             for key in error.instance:
                 if key not in allowed:
                     hint = difflib.get_close_matches(key, allowed, n=1)
-                    tip = f" (did you mean {hint[0]!r}?)" if hint else f" (allowed: {', '.join(allowed)})"
-                    yield Problem((*path, key), f"unknown key {_shown(key)}{tip}")
+                    tip = f" (did you mean {hint[0]!r}?)" if hint else f" (allowed: {', '.join(allowed) or 'none'})"
+                    yield Problem((*path, key), f"unknown key {_shown(key)}{tip}", cause)
             continue
         if error.schema is False:  # from/to/at on a criterion of another type (if/else branches)
-            criterion = _resolve(data, path)
+            criterion = _resolve(data, tuple(error.absolute_path))
             allowed = {"from": "period", "to": "period", "at": "final"}
             for key, where in allowed.items():
                 if isinstance(criterion, dict) and key in criterion and criterion.get("type") != where:
-                    yield Problem((*path, key), f"{key!r} is only allowed on {where} criteria")
+                    yield Problem((*path, key), f"{key!r} is only allowed on {where} criteria", cause)
             continue
         if keyword == "required":
             missing = error.message.split("'")[1] if "'" in error.message else error.message
-            yield Problem(path, f"missing required key {missing!r}")
+            yield Problem(path, f"missing required key {missing!r}", cause)
+            continue
+        if keyword == "enum" and isinstance(error.instance, str):
+            options = [v for v in error.validator_value if isinstance(v, str)]
+            shown = ", ".join(repr(v) for v in options)
+            yield Problem(path, f"{_shown(error.instance)} is not one of {shown}{_suggest(error.instance, options)}", cause)
+            continue
+        if keyword == "minimum" and error.validator_value == 0 and isinstance(error.instance, (int, float)):
+            yield Problem(path, f"must not be negative (got {error.instance})", cause)
             continue
         description = error.schema.get("description") if isinstance(error.schema, dict) else None
         if keyword in ("pattern", "anyOf") and description:
-            yield Problem(path, f"{_shown(error.instance)} is not valid: expected {description}")
+            yield Problem(path, f"{_shown(error.instance)} is not valid: expected {description}", cause)
             continue
-        yield Problem(path, _short(error.message))
+        if keyword == "type" and description:
+            yield Problem(path, f"{_short(error.message)}: expected {description}", cause)
+            continue
+        yield Problem(path, _short(error.message), cause)
 
 
 # ---------------------------------------------------------------------------
@@ -539,6 +605,59 @@ class _Checker:
                 seen[pred] = None
         return tuple(seen)
 
+    def params(self, leaf: LeafType, path: tuple[PathPart, ...], params: Mapping[str, Any]) -> bool:
+        """Check *params* against the leaf's own schema; whether they fit."""
+        validator = leaf.params_validator
+        if validator is None:
+            return True
+        before = len(self.problems)
+        self.problems.extend(_described(validator.iter_errors(params), params, (*path, "params"), "action"))
+        return len(self.problems) == before
+
+    def leaves_alongside_shape(self) -> None:
+        """Registration and ``params`` of every entry and criterion whose own shape is right.
+
+        Runs with stage 1 when the schema found problems, so that a document needs
+        one round of corrections, not one for the shape and one for the params.
+        """
+        data = self.data
+        entries = data.get("execute")
+        for i, raw in enumerate(entries if isinstance(entries, list) else ()):
+            if not isinstance(raw, dict) or raw.get("kind") not in ("behavior", "constraint"):
+                continue
+            action, params = raw.get("action"), raw.get("params", {})
+            if isinstance(action, str) and action and isinstance(params, dict):
+                self._registered(("execute", i), raw["kind"], action, params)
+        oracle = data.get("oracle")
+        criteria = oracle.get("criteria") if isinstance(oracle, dict) else None
+        for i, raw in enumerate(criteria if isinstance(criteria, list) else ()):
+            if not isinstance(raw, dict) or raw.get("type") not in ("record", "period", "final"):
+                continue
+            action, params = raw.get("action"), raw.get("params", {})
+            if (action is None or isinstance(action, str) and action) and isinstance(params, dict):
+                self._registered(("oracle", "criteria", i), raw["type"], action, params)
+
+    def _registered(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> None:
+        leaf = self._lookup(path, kind, action)
+        if leaf is not None:
+            self.params(leaf, path, params)
+
+    def _lookup(self, path: tuple[PathPart, ...], kind: str, action: str | None) -> LeafType | None:
+        """The leaf registered for (kind, action), or None with a problem."""
+        leaf = self.registry.get(kind, action)
+        if leaf is not None:
+            return leaf
+        if action is None:
+            self.add((*path, "type"), f"no leaf is registered for {kind!r} criteria", "action")
+            return None
+        known = [a for a in self.registry.actions(kind) if self._other_system(a) is None]
+        other = {"behavior": "constraint", "constraint": "behavior"}.get(kind)
+        hint = f" ({action!r} is a {other} action)" if other and action in self.registry.actions(other) else ""
+        hint = hint or _suggest(action, known)
+        listed = ", ".join(known) if known else "none"
+        self.add((*path, "action"), f"unknown {kind} action {_shown(action)}{hint}; known: {listed}{self._plugin_hint(action)}", "action")
+        return None
+
     def _leaf(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> dict[str, Expression]:
         """Check that a leaf is registered for (kind, action) and that its params fit; parse its expressions."""
         leaf = self.registry.get(kind, action)
@@ -547,27 +666,11 @@ class _Checker:
             self.add((*path, "action"), f"{_shown(action)} is an action of the {owner!r} system; this case's system is "
                      f"{self.spec.type!r} (set \"system\": {{\"type\": \"{owner}\", ...}})", "action")  # fmt: skip
             return {}
+        leaf = self._lookup(path, kind, action)
         if leaf is None:
-            if action is None:
-                self.add((*path, "type"), f"no leaf is registered for {kind!r} criteria", "action")
-                return {}
-            known = [a for a in self.registry.actions(kind) if self._other_system(a) is None]
-            other = {"behavior": "constraint", "constraint": "behavior"}.get(kind)
-            hint = f" ({action!r} is a {other} action)" if other and action in self.registry.actions(other) else ""
-            hint = hint or _suggest(action, known)
-            listed = ", ".join(known) if known else "none"
-            self.add((*path, "action"), f"unknown {kind} action {_shown(action)}{hint}; known: {listed}{self._plugin_hint(action)}", "action")
             return {}
-        validator = leaf.params_validator
-        if validator is not None:
-            errors = list(validator.iter_errors(params))
-            for error in errors:
-                message = error.message
-                if error.validator == "minimum" and error.validator_value == 0:
-                    message = f"must not be negative (got {error.instance})"
-                self.add((*path, "params", *error.absolute_path), _short(message), "action")
-            if errors:
-                return {}
+        if not self.params(leaf, path, params):
+            return {}
         for name in leaf.signals:
             if isinstance(params.get(name), str):
                 self.signal(params[name], (*path, "params", name), action)
@@ -774,9 +877,13 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
         raise InvalidTestCase(problems, source)
     if type(data) is dict and ("parameters" in data or "variations" in data):
         data = _parameterised(data, source)  # '$name' -> the defaults (btgen_pytrees.sweep)
-    problems = sorted(set(_schema_problems(data)), key=_sort_key)
+    problems = set(_schema_problems(data))
     if problems:
-        raise InvalidTestCase(problems, source)
+        if isinstance(data, dict):  # the params of well-formed entries in the same round
+            early = _Checker({k: v for k, v in data.items() if k != "system"}, registry, source)
+            early.leaves_alongside_shape()
+            problems.update(early.problems)
+        raise InvalidTestCase(sorted(problems, key=_sort_key), source)
     checker = _Checker(data, registry, source, system)
     checker.check_system()
     checker.check_signals()

@@ -119,7 +119,8 @@ def test_negative_duration() -> None:
 
 def test_missing_and_unknown_params() -> None:
     data = case({"id": "A", "kind": "behavior", "action": "set", "params": {"signal": "s", "valeu": 1}})
-    assert [p for p, _ in problems(data)] == ["/execute/0/params", "/execute/0/params"]
+    assert problems(data) == [("/execute/0/params", "missing required key 'value'"),
+                              ("/execute/0/params/valeu", "unknown key 'valeu' (did you mean 'value'?)")]  # fmt: skip
 
 
 @pytest.mark.parametrize(

@@ -23,6 +23,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterable, Sequence, TextIO
 
 from .errors import MAX_LINE, Interrupt, is_interrupt, printable, shorten, xml_safe
+from .overlap import warning_lines
 
 __all__ = ["Outcome", "Interrupted", "expand", "output_names", "process", "summary", "job_validate", "job_show",
            "job_run", "EXIT_ERROR", "NOT_RUN"]  # fmt: skip
@@ -191,7 +192,7 @@ def job_validate(path: str, plugins: Sequence[str], max_variations: int | None =
     if has_variations(data):  # a sweep: every variation is checked
         limit = max_variations if max_variations is not None else MAX_VARIATIONS
         found += f", {load_sweep(data, registry=registry, max_variations=limit, source_name=path).count} variations"
-    return Outcome(path, 0, found)
+    return Outcome(path, 0, found, problems=warning_lines(case))
 
 
 def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None) -> Outcome:
@@ -206,8 +207,8 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
     case = load(path, registry=registry)
     text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=max_depth)
     if target is None:
-        return Outcome(path, 0, fmt, outputs=[("-", text)])
-    return Outcome(path, 0, fmt, outputs=[(target, text)])
+        return Outcome(path, 0, fmt, outputs=[("-", text)], problems=warning_lines(case))
+    return Outcome(path, 0, fmt, outputs=[(target, text)], problems=warning_lines(case))
 
 
 def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
@@ -233,7 +234,7 @@ def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | N
             outputs.append((f"{target}.{plot}", plot_bytes(report, case, plot)))
     line = f"{report.verdict} after {report.duration:g} s" + (f": {report.message}" if report.message else "")
     word = "" if report.verdict in ("pass", "fail") else report.verdict.upper()
-    outcome = Outcome(path, 0 if report.passed else 1, line, result=word, outputs=outputs)
+    outcome = Outcome(path, 0 if report.passed else 1, line, result=word, outputs=outputs, problems=warning_lines(case))
     if junit:
         outcome.junit = report.to_junit()
     return outcome

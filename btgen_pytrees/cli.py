@@ -22,6 +22,7 @@ from .errors import MAX_PROBLEMS, Interrupt, InvalidTestCase, Problem, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
 from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
+from .overlap import warning_lines
 from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, GraphvizMissing, render
 from .systems import SystemSpec
@@ -297,6 +298,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     _refuse_binary_to_terminal(fmt, args.output)
     registry = _registry(args)
     case = load(args.file, registry=registry)
+    for line in warning_lines(case):
+        _err(line)
     try:
         text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
     except GraphvizMissing as missing:  # svg/png without Graphviz: a hint, not a traceback
@@ -443,6 +446,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     registry = _registry(args)
     case = validate(data, args.file, registry=registry, system=_system(args))
     check_work(case, args.max_work)  # before anything runs: bounded work for any valid input
+    for line in warning_lines(case):
+        _err(line)
     logged = _btlog_tree(args, case, registry)
     trace = (lambda line: _err(line)) if args.trace else None
     report = run(case, registry=registry, trace=trace, require_complete=args.require_complete or None)
@@ -540,7 +545,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML (several files: one file, a testsuite per case)")
     run.add_argument("--require-complete", action="store_true",
                      help="fail a run that passes before every entry has run to success (as the case key require_complete)")
-    run.add_argument("--trace", action="store_true", help="print a line per entry start/finish on stderr")
+    run.add_argument("--trace", action="store_true",
+                     help="print a line per entry start/success/failure/stopped on stderr (docs/semantics.md#the-trace)")
     run.add_argument("--system", metavar="TYPE[:CONFIG]", help="run against this system instead of the case's own (CONFIG relative to the current directory); checked like the case's 'system'")
     run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")
     run.add_argument("--replay", metavar="PATH", help="write a replay page of the run to PATH: one self-contained HTML file (tree, time slider, statuses, signals, verdicts); needs Graphviz")

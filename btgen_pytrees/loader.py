@@ -41,6 +41,7 @@ from .errors import InvalidTestCase, PathPart, Problem
 from .expressions import RESERVED, Expression, ExpressionError, parse
 from .leaves import Registry, default_registry
 from .leaves.registry import LeafType
+from .overlap import overlapping_writes
 from .validation import SchemaValidator
 from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemInfo, SystemSpec
@@ -911,6 +912,7 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
         source=source,
         system=checker.spec,
         require_complete=bool(data.get("require_complete", False)),
+        warnings=tuple(overlapping_writes(entries, registry)),
     )
 
 

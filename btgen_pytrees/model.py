@@ -119,6 +119,8 @@ class TestCase:
         source: file name, or ``<dict>``
         system: the system under test (``simulated`` unless the case names one)
         require_complete: a run that passes with entries unfinished fails instead
+        warnings: problems (:class:`~btgen_pytrees.errors.Problem`) that do not stop a run,
+            e.g. two entries that may write one signal at once (:mod:`btgen_pytrees.overlap`)
     """
 
     __test__ = False  # not a pytest class, despite the name
@@ -136,3 +138,4 @@ class TestCase:
     source: str = "<dict>"
     system: SystemSpec = SystemSpec()
     require_complete: bool = False
+    warnings: tuple[Any, ...] = ()

@@ -37,10 +37,22 @@ from ..leaves.wiring import RunStart
 from ..systems.base import SystemFailure
 from .report import EntryResult, OracleResult, Report
 
-__all__ = ["Collector", "Trace"]
+__all__ = ["Collector", "Trace", "trace_line"]
 
 Trace = Callable[[str], None]
 _DONE = (Status.SUCCESS, Status.FAILURE)
+
+
+def trace_line(now: float, event: str, what: str, message: str = "") -> str:
+    """One ``--trace`` line: the run time (to the nanosecond, trailing zeros cut), the event, the id.
+
+    >>> trace_line(0.1, "start", "B3")
+    '         0.1  start    B3'
+    >>> trace_line(2, "failure", "U", "x > 1 still false after 0.5 s (x=0)")
+    '           2  failure  U  x > 1 still false after 0.5 s (x=0)'
+    """
+    stamp = f"{now:.9f}".rstrip("0").rstrip(".") or "0"
+    return f"{stamp:>12}  {event:<8} {what}" + (f"  {message}" if message else "")
 
 
 class Collector(py_trees.visitors.VisitorBase):
@@ -99,13 +111,13 @@ class Collector(py_trees.visitors.VisitorBase):
         if result.start is None:
             result.start, result.status = now, "running"
             if self.trace:
-                self.trace(f"{now:10.3f}  start   {result.id}")
+                self.trace(trace_line(now, "start", result.id))
         if behaviour.status in _DONE:
             result.end = now
             result.status = "success" if behaviour.status == Status.SUCCESS else "failure"
             result.message = behaviour.feedback_message if behaviour.status == Status.FAILURE else ""
             if self.trace:
-                self.trace(f"{now:10.3f}  {result.status:8s}{result.id}" + (f"  {result.message}" if result.message else ""))
+                self.trace(trace_line(now, result.status, result.id, result.message))
 
     # -- endings the tree's status cannot tell -------------------------------------
     def raised(self, exc: BaseException) -> EntryResult | None:
@@ -132,6 +144,16 @@ class Collector(py_trees.visitors.VisitorBase):
             message = f"{culprit.id}: {message}" if isinstance(exc, SystemFailure) else f"{culprit.id} raised {message}"
         self.end("error", message)
         return culprit
+
+    def trace_end(self) -> None:
+        """Trace what the end of the run did to the entries still running: ``stopped``, or ``running`` at a timeout."""
+        if not self.trace:
+            return
+        verdict, _ = self.verdict()
+        for result in self.ordered:
+            if result.status == "running":
+                self.trace(trace_line(self.duration, "running" if verdict == "timeout" else "stopped", result.id))
+        self.trace(trace_line(self.duration, "end", verdict))
 
     def end(self, verdict: str, message: str) -> None:
         """End the run with *verdict* (``timeout`` or ``error``) whatever the tree's status says."""

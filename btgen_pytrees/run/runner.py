@@ -147,6 +147,7 @@ def run_tree(
                     collector.end("error", f"closing the system failed: {_system_error(case, exc)}")
             finally:
                 env.clock, env.system = saved
+    collector.trace_end()
     report = collector.report()
     report.trace = tracer.trace
     if case.require_complete if require_complete is None else require_complete:

@@ -1,0 +1,140 @@
+"""Load-time warnings: entries that may write the same signal at the same time.
+
+Within one tick the tree ticks entries in a fixed order (roots in file order; see
+"Order within a tick" in ``docs/semantics.md``), so when two entries write one
+signal on the same tick the one ticked later wins. That is deterministic, but rarely what the author meant: two roots that
+both ``set`` the same signal at t = 0, or a ``ramp`` still running while another
+entry ``set``\\ s its signal. The loader therefore *warns* (never refuses) when
+two entries that the timeline does not order write the same signal.
+
+**Ordered** means one entry cannot start before the other has finished, whatever
+the durations: *A* is ordered before *B* when *A* is in *B*'s *must-finish set*:
+
+* a root's set is empty;
+* with one predecessor *p*, or join ``all``: the union over the predecessors of
+  ``{p} ∪ must(p)``;
+* with join ``any``: the *intersection* over the predecessors of ``{p} ∪ must(p)``
+  - the entry starts once one of them has finished, so only what every one of
+  them guarantees is guaranteed.
+
+The relation is transitive, so whether all writers of one signal are ordered is
+decided by checking consecutive writers in topological order. When they are not,
+each writer is compared with the writers before it in the file (the nearest
+:data:`NEAREST`) and warned about with the nearest one it is not ordered with: one
+warning per writer, at its signal parameter. Which parameters write a signal is what
+each action declares as ``signals`` when it is registered (``set.signal`` and
+``ramp.signal`` among the built-ins).
+
+>>> from btgen_pytrees import load
+>>> case = load({"name": "t", "execute": [
+...     {"id": "A", "kind": "behavior", "action": "set", "params": {"signal": "x", "value": 1}},
+...     {"id": "B", "kind": "behavior", "action": "set", "params": {"signal": "x", "value": 2}}]})
+>>> [(w.pointer, w.message) for w in case.warnings]  # doctest: +NORMALIZE_WHITESPACE
+[('/execute/1/params/signal', "signal 'x' is also written by A (/execute/0) and the timeline does not
+  order the two: on a tick both write it, the one ticked later wins")]
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Sequence
+
+from .errors import Problem
+from .leaves import Registry
+from .model import Entry, TestCase
+
+__all__ = ["overlapping_writes", "warning_lines", "NEAREST"]
+
+NEAREST = 32
+"""How many earlier writers of a signal each writer is compared with (keeps the check linear)."""
+
+
+def warning_lines(case: TestCase) -> list[str]:
+    """The case's warnings as the CLI prints them on stderr: ``FILE: /pointer: warning: message``."""
+    return [Problem(w.path, f"warning: {w.message}", w.cause).render(case.source) for w in case.warnings]
+
+
+def overlapping_writes(entries: Sequence[Entry], registry: Registry) -> list[Problem]:
+    """One warning (a :class:`Problem` with cause ``overlap``) per pair of unordered writers of a signal."""
+    writers: dict[str, list[tuple[Entry, str]]] = {}
+    for entry in entries:
+        leaf = registry.get(entry.kind, entry.action)
+        if leaf is None:
+            continue
+        for param in leaf.signals:
+            signal = entry.params.get(param)
+            if isinstance(signal, str):
+                writers.setdefault(signal, []).append((entry, param))
+    shared = {s: w for s, w in writers.items() if len({e.id for e, _ in w}) > 1}
+    if not shared:
+        return []
+    by_id = {e.id: e for e in entries}
+    position = _topological_positions(entries)
+    warnings = []
+
+    def ordered(x: Entry, y: Entry) -> bool:
+        a, b = (x, y) if position[x.id] < position[y.id] else (y, x)
+        return _must_finish(a.id, b.id, by_id, position)
+
+    for signal, written in shared.items():
+        by_time = sorted(written, key=lambda pair: (position[pair[0].id], pair[0].index))
+        if all(x is y or ordered(x, y) for (x, _), (y, _) in zip(by_time, by_time[1:])):
+            continue  # the writers form a chain: the common case, in linear time
+        pairs = []
+        for k, (later, param) in enumerate(written):  # file order; the nearest earlier unordered writer
+            for earlier, _ in reversed(written[max(0, k - NEAREST):k]):
+                if earlier is not later and not ordered(earlier, later):
+                    pairs.append((earlier, later, param))
+                    break
+        for earlier, later, param in pairs:
+            warnings.append(Problem(
+                (*later.path, "params", param),
+                f"signal {signal!r} is also written by {earlier.label} (/execute/{earlier.index}) and the timeline "
+                f"does not order the two: on a tick both write it, the one ticked later wins",
+                "overlap",
+            ))  # fmt: skip
+    warnings.sort(key=lambda w: (w.path[1], w.message))
+    return warnings
+
+
+def _topological_positions(entries: Iterable[Entry]) -> dict[str, int]:
+    entries = list(entries)
+    waiting = {e.id: len(e.after) for e in entries}
+    successors: dict[str, list[str]] = {}
+    for e in entries:
+        for p in e.after:
+            successors.setdefault(p, []).append(e.id)
+    ready = [e.id for e in entries if not e.after]
+    position: dict[str, int] = {}
+    while ready:
+        v = ready.pop()
+        position[v] = len(position)
+        for s in successors.get(v, ()):
+            waiting[s] -= 1
+            if waiting[s] == 0:
+                ready.append(s)
+    return position
+
+
+def _must_finish(a: str, b: str, by_id: dict[str, Entry], position: dict[str, int]) -> bool:
+    """Whether *a* is in *b*'s must-finish set (``a`` is topologically before ``b``)."""
+    floor = position[a]
+    memo: dict[str, bool] = {}
+    # iterative post-order over b's predecessors, pruned below a's position
+    stack: list[tuple[str, bool]] = [(b, False)]
+    while stack:
+        v, expanded = stack.pop()
+        if v in memo:
+            continue
+        preds = [p for p in by_id[v].after]
+        if not expanded:
+            stack.append((v, True))
+            stack.extend((p, False) for p in preds if p != a and p not in memo and position[p] > floor)
+            continue
+        covers = [p == a or (position[p] > floor and memo.get(p, False)) for p in preds]
+        if not preds:
+            memo[v] = False
+        elif by_id[v].join == "any" and len(preds) > 1:
+            memo[v] = all(covers)
+        else:
+            memo[v] = any(covers)
+    return memo[b]

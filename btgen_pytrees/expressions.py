@@ -36,9 +36,9 @@ import math
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
-__all__ = ["Expression", "ExpressionError", "parse", "RESERVED", "MAX_LENGTH"]
+__all__ = ["Expression", "ExpressionError", "parse", "why_false", "RESERVED", "MAX_LENGTH"]
 
 MAX_LENGTH = 1000
 """Longest accepted expression, in characters (keeps parsing and products bounded)."""
@@ -191,3 +191,83 @@ def parse(text: str) -> Expression:
     except (MemoryError, RecursionError):
         raise ExpressionError("expression nested too deeply") from None
     return Expression(text, names, code, tuple((alias, name) for name, alias in aliases.items()))
+
+
+# -- why an expression is false -------------------------------------------------------------------
+
+_COMPARE = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==", ast.NotEq: "!="}
+_OPS: dict[type, Callable[[Any, Any], bool]] = {
+    ast.Lt: lambda a, b: a < b, ast.LtE: lambda a, b: a <= b, ast.Gt: lambda a, b: a > b,
+    ast.GtE: lambda a, b: a >= b, ast.Eq: lambda a, b: a == b, ast.NotEq: lambda a, b: a != b,
+}  # fmt: skip
+
+
+def _number(value: float) -> str:
+    return f"{value:.6g}"
+
+
+def why_false(expression: Expression, values: Mapping[str, Any]) -> str:
+    """Why *expression* is false for *values*: each false comparison with its margin.
+
+    The margin of a false comparison ``a OP b`` is ``|a - b|``, the distance
+    between its sides (0 for ``!=``: they are equal; for ``<``/``>`` the distance
+    to the boundary). A chain ``a < b < c`` is explained by its first false link,
+    ``and`` by each false operand, ``or`` by every operand; anything else is
+    "false" without a margin. Returns ``""`` when the expression is not false or
+    cannot be evaluated (its error says why).
+
+    >>> why_false(parse("speed <= 30"), {"speed": 32.4})
+    'speed <= 30 false by 2.4'
+    >>> why_false(parse("0 <= x < 5 && brake == 0"), {"x": 7, "brake": 0})
+    'x < 5 false by 2'
+    >>> why_false(parse("a > 1 || b"), {"a": 0, "b": False})
+    'a > 1 false by 1; b false'
+    """
+    try:
+        if expression.evaluate(values):
+            return ""
+        aliases: dict[str, str] = {}
+        tree = ast.parse(_translate(expression.source, aliases).strip(), mode="eval")
+    except (ExpressionError, SyntaxError, RecursionError, MemoryError):
+        return ""
+    env = {**FUNCTIONS, **values, **{alias: values[name] for name, alias in aliases.items()}}
+    dotted = {alias: name for name, alias in aliases.items()}
+    try:
+        parts = _explain(tree.body, env, dotted)
+    except (ArithmeticError, TypeError, ValueError, RecursionError):
+        return f"{expression.source} false"
+    return "; ".join(parts) if parts else f"{expression.source} false"
+
+
+def _value(node: ast.expr, env: Mapping[str, Any]) -> Any:
+    code = compile(ast.Expression(node), "<explain>", "eval")  # a checked sub-tree of a checked expression
+    return eval(code, {"__builtins__": {}}, dict(env))  # noqa: S307
+
+
+def _text(node: ast.AST, dotted: Mapping[str, str]) -> str:
+    text = re.sub(r"\b(True|False)\b", lambda m: m.group().lower(), ast.unparse(node))
+    return re.sub(r"\b_s\d+\b", lambda m: dotted.get(m.group(), m.group()), text) if dotted else text
+
+
+def _explain(node: ast.expr, env: Mapping[str, Any], dotted: Mapping[str, str]) -> list[str]:
+    if isinstance(node, ast.BoolOp):
+        parts: list[str] = []
+        for operand in node.values:
+            if not _value(operand, env):
+                parts.extend(_explain(operand, env, dotted))
+        return parts
+    if isinstance(node, ast.Compare):
+        left = _value(node.left, env)
+        left_node: ast.expr = node.left
+        for op, right_node in zip(node.ops, node.comparators):
+            right = _value(right_node, env)
+            if not _OPS[type(op)](left, right):
+                link = f"{_text(left_node, dotted)} {_COMPARE[type(op)]} {_text(right_node, dotted)}"
+                try:
+                    margin = 0.0 if isinstance(op, ast.NotEq) else abs(float(left) - float(right))
+                except (TypeError, ValueError, OverflowError):
+                    return [f"{link} false"]
+                return [f"{link} false by {_number(margin)}"]
+            left, left_node = right, right_node
+        return []
+    return [f"{_text(node, dotted)} false"]

@@ -59,7 +59,7 @@ def test_failing_run_rows_and_red_lines(fig1_path: str) -> None:
     report = run(case_)
     assert report.verdict == "fail"
     rows = {r.id: r for r in timeline_rows(report, case_)}
-    assert rows["R1"].failed_at == 1.6 and "speed <= 30 is false" in rows["R1"].message
+    assert rows["R1"].failed_at == 1.6 and "speed <= 30 false by" in rows["R1"].message
     assert rows["B2"].status == "stopped" and rows["B2"].end == report.duration  # drawn to the end of the run
     assert rows["B4"].start == 1.5
     figure = plot_figure(report, case_)

@@ -24,7 +24,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from ..expressions import ExpressionError
+from ..expressions import ExpressionError, why_false
 from ..model import Criterion
 from .environment import Environment
 from .simulated import reached
@@ -77,7 +77,7 @@ class Oracle(py_trees.behaviour.Behaviour):
             self.samples.append((now, values))
         try:
             ok = bool(expect.evaluate(values))
-            message = "" if ok else f"{expect.source} is false"
+            message = "" if ok else why_false(expect, values) or f"{expect.source} is false"
         except ExpressionError as exc:
             ok, message = False, str(exc)
         self.outcome = Outcome("inconclusive" if ok else "fail", now, message, values)
@@ -112,6 +112,7 @@ class Period(Oracle):
         if not reached(now, start):
             self.feedback_message = f"window opens at {start} s"
             return Status.RUNNING
+        self.feedback_message = f"checked since {start:g} s"
         if not self.check(now):
             return Status.FAILURE
         end = self.criterion.end

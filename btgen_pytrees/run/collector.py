@@ -35,6 +35,7 @@ from py_trees.common import Status
 from ..leaves.oracles import Outcome, Record
 from ..leaves.wiring import RunStart
 from ..systems.base import SystemFailure
+from .explain import explain, status_tree
 from .report import EntryResult, OracleResult, Report
 
 __all__ = ["Collector", "Trace", "trace_line"]
@@ -90,6 +91,7 @@ class Collector(py_trees.visitors.VisitorBase):
             result = EntryResult(entry.id, entry.kind, name=entry.name)
             self.results[id(node)] = result
             self.ordered.append(result)
+        self.last: dict[int, Status] = {}  # id(node) -> the status its last tick returned
         self.ticks = 0
         self.duration = 0.0
         self.ending: tuple[str, str] | None = None  # (verdict, message) set by end()/raised()
@@ -104,7 +106,9 @@ class Collector(py_trees.visitors.VisitorBase):
                 self.duration = self.env.now()
             elif behaviour is self._start:
                 self.reset()
+            self.last[id(behaviour)] = behaviour.status
             return
+        self.last[id(behaviour)] = behaviour.status
         if result.end is not None:
             return
         now = self.env.now()
@@ -171,8 +175,14 @@ class Collector(py_trees.visitors.VisitorBase):
             return "fail", ""
         return "running", f"still running after {self.duration:g} s" if self.ticks else "not ticked yet"
 
-    def report(self) -> Report:
-        """The :class:`Report` of the run so far (may be asked for at any time, any number of times)."""
+    def report(self, *, require_complete: bool = False) -> Report:
+        """The :class:`Report` of the run so far (may be asked for at any time, any number of times).
+
+        With *require_complete* a pass with an incomplete timeline is a failure
+        (:meth:`Report.require_complete`). A report that is not a pass (nor
+        ``running``) carries its explanation and the tree with each node's last
+        status (:mod:`btgen_pytrees.run.explain`).
+        """
         verdict, message = self.verdict()
         now = self.duration
         execute = []
@@ -180,6 +190,7 @@ class Collector(py_trees.visitors.VisitorBase):
             stopped = result.status == "running" and verdict not in ("timeout", "running")
             execute.append(replace(result, status="stopped") if stopped else replace(result))
         oracles = []
+        criteria = {}
         for node in self.root.iterate():
             criterion = getattr(node, "btgen_criterion", None)
             if criterion is None:
@@ -187,6 +198,7 @@ class Collector(py_trees.visitors.VisitorBase):
             if isinstance(node, Record) and verdict in ("pass", "fail", "timeout"):
                 node.conclude(now)
             outcome: Outcome = getattr(node, "outcome", None) or Outcome()
+            criteria[criterion.id] = criterion
             group = "record" if criterion.type == "record" else "others"
             oracles.append((criterion.index, OracleResult(
                 criterion.id, criterion.type, criterion.expect.source, outcome.verdict, outcome.at,
@@ -195,8 +207,14 @@ class Collector(py_trees.visitors.VisitorBase):
         oracles.sort(key=lambda pair: pair[0])
         if verdict == "fail" and not message:
             message = _why_failed(execute, [o for _, o in oracles])
-        return Report(self.case.name, verdict, now, self.ticks, message, execute, [o for _, o in oracles],
-                      source=self.case.source)  # fmt: skip
+        report = Report(self.case.name, verdict, now, self.ticks, message, execute, [o for _, o in oracles],
+                        source=self.case.source)  # fmt: skip
+        if require_complete:
+            report = report.require_complete()
+        if report.verdict not in ("pass", "running"):
+            report.explanation = report.explanation or explain(report, self.root, self.env, criteria, self.last)
+            report.tree = status_tree(self.root, self.last)
+        return report
 
 
 def _why_failed(execute: list[EntryResult], oracles: list[OracleResult]) -> str:

@@ -100,6 +100,8 @@ class Report:
     oracles: list[OracleResult] = field(default_factory=list)
     trace: RunTrace | None = field(default=None, repr=False, compare=False)
     source: str = "<dict>"
+    explanation: list[str] = field(default_factory=list)
+    tree: str = ""
 
     @property
     def passed(self) -> bool:
@@ -132,7 +134,9 @@ class Report:
         if self.verdict != "pass" or not self.incomplete:
             return self
         why = f"timeline incomplete: {self.incomplete} (the case requires a complete timeline)"
-        return replace(self, verdict="fail", message=why)
+        unfinished = [f"  entry {e.label}: {e.status}" for e in self.execute if e.status != "success"]
+        shown = unfinished[:20] + ([f"  … and {len(unfinished) - 20} more entries"] if len(unfinished) > 20 else [])
+        return replace(self, verdict="fail", message=why, explanation=[why, *shown])
 
     def decisive(self, oracle: OracleResult) -> bool:
         """Whether *oracle*'s verdict counts for the run.
@@ -152,9 +156,18 @@ class Report:
             oracle["values"] = {k: _json_value(v) for k, v in oracle["values"].items()}
         ordered = {k: data[k] for k in ("test", "source", "verdict", "duration", "ticks", "message")}
         ordered["timeline"] = {"complete": self.complete, "message": self.incomplete}
+        ordered["explanation"] = list(self.explanation)
         ordered["execute"] = [_name_second(e) for e in data["execute"]]
         ordered["oracles"] = [_name_second(o) for o in data["oracles"]]
+        ordered["tree"] = self.tree
         return ordered
+
+    def why(self) -> str:
+        """The explanation and the tree at the end, as one text (the JUnit failure body)."""
+        text = "\n".join(self.explanation)
+        if self.tree:
+            text += ("\n\n" if text else "") + "tree at the end (last status of each node):\n" + self.tree
+        return text
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
@@ -185,7 +198,10 @@ class Report:
         verdict += f" after {self.duration:g} s ({self.ticks} ticks)"
         if self.message:
             verdict += f" - {self.message}"
-        return "\n".join(line.rstrip() for line in lines) + "\n\n" + verdict + "\n"
+        why = "".join(f"  {line}\n" for line in self.explanation) if self.explanation else ""
+        if why:
+            why = "why:\n" + why
+        return "\n".join(line.rstrip() for line in lines) + "\n\n" + verdict + "\n" + why
 
     def junit_suite(self) -> ET.Element:
         """This run as one JUnit ``<testsuite>``: a testcase for the execute subtree and one per criterion.
@@ -199,12 +215,17 @@ class Report:
         suite = ET.Element("testsuite", name=self.test, tests=str(len(self.oracles) + 1), time=f"{self.duration:g}")
         counts = {"failure": 0, "error": 0, "skipped": 0}
 
+        why = self.why()
+
         def case(name: str, outcome: str, message: str, at: float | None, out: str = "") -> None:
             el = ET.SubElement(suite, "testcase", classname=f"btgen.{self.test}", name=name,
                                time=f"{at:g}" if at is not None else "0")  # fmt: skip
             if outcome in counts:
                 counts[outcome] += 1
-                ET.SubElement(el, outcome, message=(message or outcome).split("\n")[0]).text = message or outcome
+                body = message or outcome
+                if outcome in ("failure", "error") and why:
+                    body += "\n\n" + why
+                ET.SubElement(el, outcome, message=(message or outcome).split("\n")[0]).text = body
             if out:
                 ET.SubElement(el, "system-out").text = out
 
@@ -234,7 +255,7 @@ class Report:
             counts["error"] += 1
             el = suite.find("testcase")
             assert el is not None
-            ET.SubElement(el, "error", message=self.verdict).text = self.message or self.verdict
+            ET.SubElement(el, "error", message=self.verdict).text = (self.message or self.verdict) + ("\n\n" + why if why else "")
         suite.set("failures", str(counts["failure"]))
         suite.set("errors", str(counts["error"]))
         suite.set("skipped", str(counts["skipped"]))

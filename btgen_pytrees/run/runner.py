@@ -148,10 +148,8 @@ def run_tree(
             finally:
                 env.clock, env.system = saved
     collector.trace_end()
-    report = collector.report()
+    report = collector.report(require_complete=case.require_complete if require_complete is None else require_complete)
     report.trace = tracer.trace
-    if case.require_complete if require_complete is None else require_complete:
-        report = report.require_complete()
     return report
 
 

@@ -175,3 +175,10 @@ def test_btcpp_export_carries_the_name_labels() -> None:
     document = ET.fromstring(btcpp_xml(btgen_pytrees.generate(btgen_pytrees.load(data))))
     assert document.find(".//Action[@name='A (warm up)']") is not None
     assert document.find(".//Action[@name='F (done)']") is not None
+
+
+def test_junit_stays_well_formed_with_control_characters_in_names() -> None:
+    data = case(dict(entry("U", action="until", expect="false", timeout=0.1), name="bad\x1bname\x01"), name="t\x02")
+    report = run_case(data)
+    suite = ET.fromstring(report.to_junit()).find("testsuite")
+    assert suite is not None and suite.get("failures") == "1" and "\\x1b" in ET.tostring(suite, encoding="unicode")

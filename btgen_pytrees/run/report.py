@@ -16,6 +16,7 @@ from ..errors import xml_safe
 if TYPE_CHECKING:  # pragma: no cover
     from .trace import RunTrace
 
+from ..errors import xml_safe
 from ..model import label
 
 __all__ = ["EntryResult", "OracleResult", "Report"]
@@ -259,6 +260,11 @@ class Report:
         suite.set("failures", str(counts["failure"]))
         suite.set("errors", str(counts["error"]))
         suite.set("skipped", str(counts["skipped"]))
+        for element in suite.iter():  # names and messages come from the case: keep the XML well-formed
+            for key, value in element.attrib.items():
+                element.set(key, xml_safe(value))
+            if element.text:
+                element.text = xml_safe(element.text)
         return suite
 
     def to_junit(self) -> str:

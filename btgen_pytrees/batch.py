@@ -212,7 +212,8 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
 
 
 def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
-            junit: bool = False, system: Any = None, max_work: int | None = None) -> Outcome:  # fmt: skip
+            junit: bool = False, system: Any = None, max_work: int | None = None,
+            require_complete: bool = False) -> Outcome:  # fmt: skip
     """Run one case; outputs: ``<target>.report.json``, ``<target>.junit.xml`` and, with *plot*
     (``svg``/``png``/``html``), ``<target>.<plot>``. With *junit* the JUnit text also comes back
     (``Outcome.junit``) for one batch-wide file. *system* (a ``SystemSpec``) replaces the case's
@@ -224,7 +225,7 @@ def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | N
     registry = default_registry(plugins)
     case = load(path, registry=registry, system=system)
     check_work(case, MAX_WORK if max_work is None else max_work)
-    report = run(case, registry=registry)
+    report = run(case, registry=registry, require_complete=require_complete or None)
     outputs: list[tuple[str, str | bytes]] = []
     if target is not None:
         outputs = [(f"{target}.report.json", report.to_json()), (f"{target}.junit.xml", report.to_junit())]

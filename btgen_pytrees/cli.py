@@ -425,7 +425,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             return _batch(args, files, job, job_args, after=junit)
 
         return _batch(args, files, batch.job_run,
-                      lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system, args.max_work),
+                      lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system, args.max_work,
+                                    args.require_complete),
                       after=junit)  # fmt: skip
     for option in ("json", "junit", "plot", "replay", "btlog"):
         _check_output(getattr(args, option), f"--{option}", [args.file])

@@ -182,3 +182,10 @@ def test_junit_stays_well_formed_with_control_characters_in_names() -> None:
     report = run_case(data)
     suite = ET.fromstring(report.to_junit()).find("testsuite")
     assert suite is not None and suite.get("failures") == "1" and "\\x1b" in ET.tostring(suite, encoding="unicode")
+
+
+def test_require_complete_applies_to_a_batch(tmp_path: pathlib.Path) -> None:
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.json").write_text(json.dumps(early_exit_case()))
+    assert main(["run", str(tmp_path / "a.json"), str(tmp_path / "b.json"), "-j", "1"]) == 0
+    assert main(["run", str(tmp_path / "a.json"), str(tmp_path / "b.json"), "-j", "1", "--require-complete"]) == 1

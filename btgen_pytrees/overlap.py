@@ -47,6 +47,17 @@ __all__ = ["overlapping_writes", "warning_lines", "NEAREST"]
 NEAREST = 32
 """How many earlier writers of a signal each writer is compared with (keeps the check linear)."""
 
+BUDGET_PER_ENTRY, BUDGET_BASE = 10, 10_000
+"""Nodes the ordering searches may visit (per entry of the case, plus a base) before the check gives up.
+
+A case with thousands of unordered writers of one signal would otherwise cost
+a search per pair; past the budget, one more warning says the rest was not checked.
+"""
+
+
+class _OutOfBudget(Exception):
+    pass
+
 
 def warning_lines(case: TestCase) -> list[str]:
     """The case's warnings as the CLI prints them on stderr: ``FILE: /pointer: warning: message``."""
@@ -70,21 +81,27 @@ def overlapping_writes(entries: Sequence[Entry], registry: Registry) -> list[Pro
     by_id = {e.id: e for e in entries}
     position = _topological_positions(entries)
     warnings = []
+    budget = [BUDGET_PER_ENTRY * len(by_id) + BUDGET_BASE]  # nodes the searches may still visit
 
     def ordered(x: Entry, y: Entry) -> bool:
         a, b = (x, y) if position[x.id] < position[y.id] else (y, x)
-        return _must_finish(a.id, b.id, by_id, position)
+        return _must_finish(a.id, b.id, by_id, position, budget)
 
     for signal, written in shared.items():
-        by_time = sorted(written, key=lambda pair: (position[pair[0].id], pair[0].index))
-        if all(x is y or ordered(x, y) for (x, _), (y, _) in zip(by_time, by_time[1:])):
-            continue  # the writers form a chain: the common case, in linear time
         pairs = []
-        for k, (later, param) in enumerate(written):  # file order; the nearest earlier unordered writer
-            for earlier, _ in reversed(written[max(0, k - NEAREST):k]):
-                if earlier is not later and not ordered(earlier, later):
-                    pairs.append((earlier, later, param))
-                    break
+        try:
+            by_time = sorted(written, key=lambda pair: (position[pair[0].id], pair[0].index))
+            if all(x is y or ordered(x, y) for (x, _), (y, _) in zip(by_time, by_time[1:])):
+                continue  # the writers form a chain: the common case, in linear time
+            for k, (later, param) in enumerate(written):  # file order; the nearest earlier unordered writer
+                for earlier, _ in reversed(written[max(0, k - NEAREST):k]):
+                    if earlier is not later and not ordered(earlier, later):
+                        pairs.append((earlier, later, param))
+                        break
+        except _OutOfBudget:
+            entry, param = written[0]
+            warnings.append(Problem((*entry.path, "params", param), f"signal {signal!r} is written by {len(written)} "
+                                    "entries; too many to check which of them may write it at the same time", "overlap"))  # fmt: skip
         for earlier, later, param in pairs:
             warnings.append(Problem(
                 (*later.path, "params", param),
@@ -115,13 +132,16 @@ def _topological_positions(entries: Iterable[Entry]) -> dict[str, int]:
     return position
 
 
-def _must_finish(a: str, b: str, by_id: dict[str, Entry], position: dict[str, int]) -> bool:
+def _must_finish(a: str, b: str, by_id: dict[str, Entry], position: dict[str, int], budget: list[int]) -> bool:
     """Whether *a* is in *b*'s must-finish set (``a`` is topologically before ``b``)."""
     floor = position[a]
     memo: dict[str, bool] = {}
     # iterative post-order over b's predecessors, pruned below a's position
     stack: list[tuple[str, bool]] = [(b, False)]
     while stack:
+        budget[0] -= 1
+        if budget[0] < 0:
+            raise _OutOfBudget
         v, expanded = stack.pop()
         if v in memo:
             continue

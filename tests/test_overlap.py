@@ -79,3 +79,12 @@ def test_the_cli_prints_warnings_on_stderr_and_still_succeeds(tmp_path: pathlib.
 def test_a_long_chain_of_writers_is_checked_in_linear_time() -> None:
     data = case(*[setter(f"S{i}", i, [f"S{i - 1}"] if i else []) for i in range(5000)])
     assert warned(data) == []
+
+
+def test_the_check_gives_up_with_a_warning_when_its_budget_is_spent(monkeypatch: Any) -> None:
+    from btgen_pytrees import overlap
+
+    monkeypatch.setattr(overlap, "BUDGET_PER_ENTRY", 0)
+    monkeypatch.setattr(overlap, "BUDGET_BASE", 0)
+    assert warned(case(setter("A", 1), setter("B", 2), setter("C", 3))) == [
+        ("/execute/0/params/signal", "signal 'x' is written by 3 entries; too many to check which of them may write it at the same time")]

@@ -99,16 +99,17 @@ class Collector(py_trees.visitors.VisitorBase):
     # -- the visitor ---------------------------------------------------------------
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         """Note what *behaviour* (just ticked) means for the run; called for every visited node."""
-        result = self.results.get(id(behaviour))
+        key = id(behaviour)
+        result = self.results.get(key)
         if result is None:
             if behaviour is self.root:
                 self.ticks += 1
                 self.duration = self.env.now()
             elif behaviour is self._start:
                 self.reset()
-            self.last[id(behaviour)] = behaviour.status
+            self.last[key] = behaviour.status
             return
-        self.last[id(behaviour)] = behaviour.status
+        self.last[key] = behaviour.status
         if result.end is not None:
             return
         now = self.env.now()

@@ -11,7 +11,7 @@ from typing import Any
 
 import jsonschema
 import pytest
-from helpers import case, entry
+from helpers import case, crit, entry
 
 import btgen_pytrees
 from btgen_pytrees import InvalidTestCase
@@ -78,3 +78,16 @@ def test_the_printed_schema_describes_each_actions_params(tmp_path: pathlib.Path
     ramp = next(r["then"]["properties"]["params"] for r in printed["$defs"]["entry"]["allOf"]
                 if r["if"]["properties"]["action"] == {"const": "ramp"})  # fmt: skip
     assert ramp["required"] == ["signal", "to", "duration"] and "linearly" in ramp["description"]
+
+
+@pytest.mark.parametrize("key, value", [("signals", [{"x": 0}]), ("system", 5), ("oracle", []), ("execute", {"A": 1}),
+                                        ("signals", {"x": "text"}), ("join", 3)])  # fmt: skip
+def test_any_malformed_top_level_value_still_gives_the_params_problems(key: str, value: Any) -> None:
+    """Fuzz finding: the early params check must not depend on the shape of the rest of the document."""
+    data = case(entry("A"), {"id": "B", "kind": "behavior", "action": "hold", "params": {"duraton": 1}},
+                criteria=[crit("F", "final", "true")])  # fmt: skip
+    data[key] = value
+    found = [p for p, _ in problems(data)]
+    assert found and all(p.startswith("/") for p in found)
+    if key not in ("execute",):
+        assert "/execute/1/params/duraton" in found

@@ -155,7 +155,7 @@ def test_wrong_types_after_substitution_are_reported_per_distinct_problem() -> N
     data = swept({"d": 1, "on": True}, {"d": [1, -1, -2, 3, -1.5]},
                  entry("A", duration="$d"), entry("B", duration="$on"))  # fmt: skip
     found = problems(data)
-    assert ("/execute/1/params/duration", "True is not of type 'number'") in found  # every variation: said once
+    assert ("/execute/1/params/duration", "True is not of type 'number': expected seconds, >= 0") in found  # every variation: said once
     negative = [m for p, m in found if p == "/execute/0/params/duration"]
     assert negative == [
         "must not be negative (got -1) (in variation: [d=-1])",
@@ -246,7 +246,7 @@ def test_run_sweep_reports_every_variation(tmp_path: pathlib.Path) -> None:
     lines = one.stdout.splitlines()
     assert lines[0] == "fig1_sweep: 28 variations of top_speed x limit: 18 pass, 10 fail"
     assert lines[3].split()[:2] == ["top_speed=40,limit=20", "FAIL"]  # failed earliest: worst first
-    assert "R1: speed <= 20 is false at 1.1 s" in lines[3]
+    assert "R1: speed <= 20 false by 2 at 1.1 s" in lines[3]
     xml = junit.read_text()
     assert xml.count("<testcase ") == 28 and xml.count("<failure ") == 10
     assert 'name="fig1_sweep[top_speed=40,limit=35]"' in xml

@@ -311,7 +311,8 @@ def test_the_examples_pass_and_fail_as_described_from_the_command_line() -> None
     assert "acc_hard_brake: PASS after 9.2 s" in done.stdout
     done = cli("run", "examples/sumo/cut_in.json")
     assert done.returncode == 1, done.stdout + done.stderr
-    assert "R1         record  sim.collisions == 0   fail          4   sim.collisions == 0 is false at 4 s (sim.collisions=1)" in done.stdout
+    assert "R1 (no collision)           record  sim.collisions == 0   fail          4   sim.collisions == 0 false by 1 at 4 s (sim.collisions=1)" in done.stdout
+    assert "criterion R1 (no collision) (record) failed: sim.collisions == 0 false by 1 at 4 s (sim.collisions=1)" in done.stdout
     assert "cut_in: FAIL after 4 s (41 ticks) - R1 failed" in done.stdout
     assert done.stderr == ""
     assert sumo_processes() <= before
@@ -536,7 +537,7 @@ def test_an_infinite_gap_is_written_to_the_json_report_as_text(tmp_path: pathlib
 
     path = sumo_case(tmp_path, entry("C1", action="wait"), criteria=[crit("F1", "final", "ego.gap < 1000")])
     done = cli("run", str(path), "--json", str(tmp_path / "r.json"))
-    assert done.returncode == 1 and "ego.gap < 1000 is false at 1 s (ego.gap=inf)" in done.stdout, done.stderr
+    assert done.returncode == 1 and "ego.gap < 1000 false by inf at 1 s (ego.gap=inf)" in done.stdout, done.stderr
     text = (tmp_path / "r.json").read_text(encoding="utf-8")
     report = json.loads(text, parse_constant=lambda name: pytest.fail(f"{name} in the JSON report"))
     assert report["oracles"][0]["values"] == {"ego.gap": "inf"}

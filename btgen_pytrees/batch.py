@@ -15,7 +15,6 @@ import multiprocessing
 import multiprocessing.context
 import os
 import signal
-import stat
 import sys
 import time
 from dataclasses import dataclass, field
@@ -219,11 +218,24 @@ def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | N
     (``Outcome.junit``) for one batch-wide file. *system* (a ``SystemSpec``) replaces the case's
     (``run --system``). *max_work* is the work budget (default :data:`~.loader.MAX_WORK`)."""
     from .leaves import default_registry
-    from .loader import MAX_WORK, check_work, load
-    from .run import run
+    from .loader import load
 
     registry = default_registry(plugins)
     case = load(path, registry=registry, system=system)
+    return run_case(path, case, registry, target, plot, junit, max_work, require_complete)
+
+
+def run_case(path: str, case: Any, registry: Any, target: str | None, plot: str | None = None,
+             junit: bool = False, max_work: int | None = None, require_complete: bool = False) -> Outcome:  # fmt: skip
+    """Check the work budget, run a loaded *case* and make *path*'s :class:`Outcome`.
+
+    The one piece behind every engine's ``run`` of a file (:func:`job_run` on the
+    local workers, ``job_run_shipped`` on a Dask cluster), so the outputs, the
+    summary line, the warnings and ``--require-complete`` are the same wherever it ran.
+    """
+    from .loader import MAX_WORK, check_work
+    from .run import run
+
     check_work(case, MAX_WORK if max_work is None else max_work)
     report = run(case, registry=registry, require_complete=require_complete or None)
     outputs: list[tuple[str, str | bytes]] = []

@@ -10,11 +10,12 @@ from __future__ import annotations
 from typing import Any, Iterator
 
 import py_trees
-from py_trees.composites import Parallel, Sequence
+from py_trees.composites import Parallel, Selector, Sequence
+from py_trees.decorators import Decorator
 
 from ..leaves.wiring import Completion, OrMember, RunStart, Trigger, WakingParallel
 
-__all__ = ["node_info", "walk", "policy_name", "annotation", "role", "selected", "is_selected", "type_name"]
+__all__ = ["node_info", "walk", "symbol", "policy_name", "annotation", "role", "selected", "is_selected", "type_name"]
 
 
 def walk(root: py_trees.behaviour.Behaviour) -> Iterator[tuple[int, py_trees.behaviour.Behaviour]]:
@@ -129,3 +130,17 @@ def annotation(node: py_trees.behaviour.Behaviour) -> str:
     if isinstance(node, RunStart):
         return "resets the blackboard namespace, starts the clock, sets initial signals"
     return ""
+
+
+def symbol(node: py_trees.behaviour.Behaviour) -> str:
+    """py_trees' own symbol for *node*'s type (``/_/`` Parallel, ``{-}`` Sequence with memory, ``-->`` leaf, ...),
+    shared by the text views and the status tree of a report."""
+    if isinstance(node, Parallel):
+        return "/_/"
+    if isinstance(node, Decorator):
+        return "-^-"
+    if isinstance(node, Sequence):
+        return "{-}" if node.memory else "[-]"
+    if isinstance(node, Selector):
+        return "{o}" if node.memory else "[o]"
+    return "-->"

@@ -9,24 +9,10 @@ memory, ``-^-`` decorator, ``-->`` leaf) and add that detail after each name.
 from __future__ import annotations
 
 import py_trees
-from py_trees.composites import Parallel, Selector, Sequence
-from py_trees.decorators import Decorator
 
-from .info import annotation, walk
+from .info import annotation, symbol, walk
 
 __all__ = ["text_tree"]
-
-
-def _symbol(node: py_trees.behaviour.Behaviour) -> str:
-    if isinstance(node, Parallel):
-        return "/_/"
-    if isinstance(node, Decorator):
-        return "-^-"
-    if isinstance(node, Sequence):
-        return "{-}" if node.memory else "[-]"
-    if isinstance(node, Selector):
-        return "{o}" if node.memory else "[o]"
-    return "-->"
 
 
 def text_tree(root: py_trees.behaviour.Behaviour, *, unicode: bool = True, max_depth: int | None = None) -> str:
@@ -49,7 +35,7 @@ def text_tree(root: py_trees.behaviour.Behaviour, *, unicode: bool = True, max_d
             lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes")
             hidden = 0
         note = annotation(node)
-        line = f"{'    ' * depth}{_symbol(node)} {node.name}" + (f"{sep}{note}" if note else "")
+        line = f"{'    ' * depth}{symbol(node)} {node.name}" + (f"{sep}{note}" if note else "")
         lines.append(line if unicode else line.encode("ascii", "replace").decode("ascii"))
     if hidden:
         lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes")

@@ -35,11 +35,10 @@ from typing import Any, Mapping
 
 import py_trees
 from py_trees.common import Status
-from py_trees.composites import Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
 from ..expressions import why_false
-from ..render.info import walk
+from ..render.info import symbol, walk
 
 __all__ = ["why_false", "explain", "status_tree", "TREE_LINES", "LINES_PER_KIND"]
 
@@ -48,18 +47,6 @@ TREE_LINES = 300
 
 _SYMBOL = {Status.SUCCESS: "✓", Status.FAILURE: "✕", Status.RUNNING: "*", Status.INVALID: "-"}
 # -- the tree at the end ---------------------------------------------------------------------------
-
-
-def _symbol(node: py_trees.behaviour.Behaviour) -> str:
-    if isinstance(node, Parallel):
-        return "/_/"
-    if isinstance(node, Decorator):
-        return "-^-"
-    if isinstance(node, Sequence):
-        return "{-}" if node.memory else "[-]"
-    if isinstance(node, Selector):
-        return "{o}" if node.memory else "[o]"
-    return "-->"
 
 
 def status_tree(root: py_trees.behaviour.Behaviour, last: Mapping[int, Status], *, limit: int = TREE_LINES) -> str:
@@ -89,7 +76,7 @@ def status_tree(root: py_trees.behaviour.Behaviour, last: Mapping[int, Status], 
                 continue
             skip_below = None
         status = last.get(id(node), Status.INVALID)
-        line = f"{'    ' * depth}{_symbol(node)} {node.name} [{_SYMBOL[status]}]"
+        line = f"{'    ' * depth}{symbol(node)} {node.name} [{_SYMBOL[status]}]"
         if node.feedback_message and status in (Status.RUNNING, Status.FAILURE):  # a success's may be stale
             line += f" -- {node.feedback_message}"
         if fold and sizes[id(node)] > 1 and settled[id(node)]:

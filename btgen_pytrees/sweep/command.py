@@ -196,7 +196,8 @@ def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequenc
             problems: list[Problem] = []
         except InvalidTestCase as error:
             raw, problems = None, list(error.problems)
-        return (plugins, raw, problems, targets[i], plot, bool(args.junit), system, getattr(args, "max_work", None))
+        return (plugins, raw, problems, targets[i], plot, bool(args.junit), system, getattr(args, "max_work", None),
+                getattr(args, "require_complete", False))
 
     return executor, job_run_shipped, job_args
 

@@ -82,34 +82,23 @@ def job_variation(label: str, plugins: Sequence[str], source: str, document: Map
 
 def job_run_shipped(path: str, plugins: Sequence[str], raw: bytes | None, problems: Sequence[Any],
                     target: str | None, plot: str | None = None, junit: bool = False, system: Any = None,
-                    max_work: int | None = None) -> Outcome:  # fmt: skip
+                    max_work: int | None = None, require_complete: bool = False) -> Outcome:  # fmt: skip
     """``run`` of one file of a batch on a cluster: the file's bytes travel with the task.
 
-    Like :func:`btgen_pytrees.batch.job_run`, whose outputs (report, JUnit, plot)
+    Only the reading differs from :func:`btgen_pytrees.batch.job_run`: both end
+    in :func:`btgen_pytrees.batch.run_case`, whose outputs (report, JUnit, plot)
     come back as data for the client to write; *problems* are what reading the
     file found on the client (then *raw* is None).
     """
+    from ..batch import run_case
     from ..errors import InvalidTestCase
-    from ..loader import MAX_WORK, check_work, parse_json, validate
-    from ..run import run
+    from ..loader import parse_json, validate
 
     if raw is None:
         raise InvalidTestCase(problems, path)
     registry = _registry(tuple(plugins))
     case = validate(parse_json(raw, path), path, registry, system)
-    check_work(case, MAX_WORK if max_work is None else max_work)
-    report = run(case, registry=registry)
-    outputs: list[tuple[str, str | bytes]] = []
-    if target is not None:
-        outputs = [(f"{target}.report.json", report.to_json()), (f"{target}.junit.xml", report.to_junit())]
-        if plot is not None:
-            from ..run.plot import plot_bytes
-
-            outputs.append((f"{target}.{plot}", plot_bytes(report, case, plot)))
-    line = f"{report.verdict} after {report.duration:g} s" + (f": {report.message}" if report.message else "")
-    word = "" if report.verdict in ("pass", "fail") else report.verdict.upper()
-    return Outcome(path, 0 if report.passed else 1, line, result=word, outputs=outputs,
-                   junit=report.to_junit() if junit else "")  # fmt: skip
+    return run_case(path, case, registry, target, plot, junit, max_work, require_complete)
 
 
 @dataclass

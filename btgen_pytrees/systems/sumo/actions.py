@@ -13,10 +13,9 @@ from __future__ import annotations
 
 from typing import Any
 
-import py_trees
 from py_trees.common import Status
 
-from ...leaves.simulated import reached
+from ...leaves.simulated import SimulatedLeaf, reached
 from ...model import Entry
 from .system import CommandError, SumoSystem
 
@@ -46,19 +45,15 @@ PARAMS: dict[str, dict[str, Any]] = {
 }
 
 
-class SumoAction(py_trees.behaviour.Behaviour):
-    """Base: the entry, its environment, when it started, and the failure it met."""
+class SumoAction(SimulatedLeaf):
+    """Base: the entry, its environment and when it started (as every built-in leaf), and the failure it met."""
 
     def __init__(self, entry: Entry, env: Any):
-        super().__init__(name=entry.name)
-        self.entry = entry
-        self.env = env
-        self.params = entry.params
-        self.started = 0.0
+        super().__init__(entry, env)
         self.failed = ""
 
     def initialise(self) -> None:
-        self.started = self.env.now()
+        super().initialise()
         self.failed = ""
         try:
             self.begin(self.system())
@@ -80,9 +75,6 @@ class SumoAction(py_trees.behaviour.Behaviour):
         if not isinstance(system, SumoSystem):
             raise CommandError(f"{self.entry.action} needs the case's system to be 'sumo'")
         return system
-
-    def elapsed(self) -> float:
-        return self.env.now() - self.started
 
     def need(self, system: SumoSystem, vid: str) -> bool:
         """Whether *vid* is in the network; if not, remember why as the failure."""

@@ -13,7 +13,7 @@ import argparse
 import os
 import signal
 import sys
-from typing import TYPE_CHECKING, Any, Callable, NoReturn, Sequence, TextIO
+from typing import TYPE_CHECKING, Any, Callable, Iterable, NoReturn, Sequence, TextIO
 
 from . import __version__
 from . import batch
@@ -24,7 +24,7 @@ from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
 from .overlap import warning_lines
 from .output import OutputError, check_target, commit, is_direct, same_file
-from .render import FORMATS, GraphvizMissing, render
+from .render import FORMATS, GraphvizMissing, render_chunks
 from .systems import SystemSpec
 from .sweep.case import has_variations
 from .sweep.command import Refused
@@ -110,13 +110,20 @@ def _stdout_text(text: str, fmt: str) -> str:
     return printable(text, keep_newlines=True)
 
 
-def _write_stdout(data: str | bytes, fmt: str) -> None:
-    if isinstance(data, bytes):
-        sys.stdout.flush()
-        sys.stdout.buffer.write(data)
-        sys.stdout.buffer.flush()
-    else:
-        _print(_stdout_text(data, fmt))
+def _write_stdout(data: str | bytes | Iterable[str | bytes], fmt: str) -> None:
+    """Write a view to stdout: text escaped for a terminal (:func:`_stdout_text`), bytes as they are.
+
+    Chunks (:func:`~.render.render_chunks`) are written one by one as they are
+    made, so a large tree's view starts at once and is never held whole; the
+    escaping works character by character, so chunking does not change it.
+    """
+    for chunk in [data] if isinstance(data, (str, bytes)) else data:
+        if isinstance(chunk, bytes):
+            sys.stdout.flush()
+            sys.stdout.buffer.write(chunk)
+            sys.stdout.buffer.flush()
+        else:
+            _print(_stdout_text(chunk, fmt))
 
 
 # -- checks made before any work ------------------------------------------------------------------
@@ -300,14 +307,14 @@ def cmd_show(args: argparse.Namespace) -> int:
     case = load(args.file, registry=registry)
     for line in warning_lines(case):
         _err(line)
-    try:
-        text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
+    try:  # the text views are drawn while they are written (render_chunks)
+        chunks = render_chunks(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
     except GraphvizMissing as missing:  # svg/png without Graphviz: a hint, not a traceback
         raise UsageError(str(missing)) from None
     if args.output is None or args.output == "-":
-        _write_stdout(text, fmt)
+        _write_stdout(chunks, fmt)
     else:
-        commit([(args.output, text)])
+        commit([(args.output, chunks)])
     return EXIT_OK
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 import stat
-from typing import Iterable, Sequence
+from typing import Iterable, Iterator, Sequence, Union
 
 __all__ = ["OutputError", "check_target", "commit", "write_file", "same_file", "is_direct"]
 
@@ -84,44 +84,73 @@ def check_target(path: str, option: str, inputs: Sequence[str] = (), *, made_lat
         raise OutputError(f"{option} {path}: file is not writable")
 
 
+Data = Union[str, bytes, Iterable[Union[str, bytes]]]
+"""What :func:`commit` writes to a path: text, bytes, or an iterable of chunks of either
+(:func:`~.render.render_chunks`), taken one at a time while they are written."""
+
+
 def _encoded(data: str | bytes) -> bytes:
     return data if isinstance(data, bytes) else data.encode("utf-8", "surrogateescape")
 
 
-def _write_direct(path: str, data: bytes) -> None:
+def _chunks(data: Data) -> Iterator[bytes]:
+    if isinstance(data, (str, bytes)):
+        yield _encoded(data)
+    else:
+        for chunk in data:
+            yield _encoded(chunk)
+
+
+def _write_direct(path: str, data: Data) -> None:
     with open(path, "wb") as fh:
-        fh.write(data)
+        for chunk in _chunks(data):
+            fh.write(chunk)
 
 
-def commit(outputs: Iterable[tuple[str, str | bytes]]) -> list[str]:
+def _write_stdout(data: Data) -> None:
+    import sys
+
+    sys.stdout.flush()
+    for chunk in _chunks(data):
+        sys.stdout.buffer.write(chunk)
+        sys.stdout.buffer.flush()
+
+
+def commit(outputs: Iterable[tuple[str, Data]]) -> list[str]:
     """Write every ``(path, data)`` together: all regular targets appear, or none changes.
 
     Text is written as UTF-8 with ``\\n`` line ends. Returns the paths written.
+
+    *data* may be an iterable of chunks: each is written as soon as it is
+    made, into the temporary file of a regular target (renamed only once all
+    are complete, as above). A target written in place (stdout, a device)
+    cannot be taken back: it is written after every regular target is in
+    place, chunk by chunk when only such targets are given; with regular
+    targets beside it its chunks are first all made, so that a failure while
+    making them still leaves no output changed.
     """
+    outputs = list(outputs)
+    in_place_only = all(is_direct(path) for path, _ in outputs)
     staged: list[tuple[str, str]] = []  # (tmp, final)
-    direct: list[tuple[str, bytes]] = []
+    direct: list[tuple[str, Data]] = []
     try:
         for path, data in outputs:
-            raw = _encoded(data)
             if is_direct(path):
-                direct.append((path, raw))
+                direct.append((path, data if in_place_only else b"".join(_chunks(data))))
                 continue
             final = os.path.realpath(path)  # follow a symlink: replace what it points to, keep the link
             tmp = f"{final}.tmp{os.getpid()}"
             staged.append((tmp, final))
             with open(tmp, "wb") as fh:
-                fh.write(raw)
+                for chunk in _chunks(data):
+                    fh.write(chunk)
         for tmp, final in staged:
             os.replace(tmp, final)
-        for path, raw in direct:
+        for path, data in direct:
             if path == "-":
-                import sys
-
-                sys.stdout.flush()
-                sys.stdout.buffer.write(raw)
-                sys.stdout.buffer.flush()
+                _write_stdout(data)
             else:
-                _write_direct(path, raw)
+                _write_direct(path, data)
     finally:
         for tmp, _ in staged:
             if os.path.lexists(tmp):
@@ -129,6 +158,6 @@ def commit(outputs: Iterable[tuple[str, str | bytes]]) -> list[str]:
     return [path for path, _ in [*((f, b"") for _, f in staged), *direct]]
 
 
-def write_file(path: str, data: str | bytes) -> None:
-    """Write *data* (text as UTF-8 with ``\\n`` line ends, or bytes) to *path*: see :func:`commit`."""
+def write_file(path: str, data: Data) -> None:
+    """Write *data* (text as UTF-8 with ``\\n`` line ends, bytes, or chunks of either) to *path*: see :func:`commit`."""
     commit([(path, data)])

@@ -29,7 +29,7 @@ import networkx as nx
 
 from .model import TestCase
 
-__all__ = ["timeline", "adjacency_matrix", "topological_order", "matrix_text", "DENSE_LIMIT"]
+__all__ = ["timeline", "adjacency_matrix", "topological_order", "matrix_text", "matrix_lines", "DENSE_LIMIT"]
 
 
 def timeline(case: TestCase) -> nx.DiGraph:
@@ -99,13 +99,18 @@ def matrix_text(graph: nx.DiGraph, dense_limit: int = DENSE_LIMIT) -> str:
     10,000 entries, gigabytes), so each row is printed sparsely instead: the
     entry, then the columns holding a 1 (``B1: C1 B2``).
     """
+    return "".join(matrix_lines(graph, dense_limit))
+
+
+def matrix_lines(graph: nx.DiGraph, dense_limit: int = DENSE_LIMIT) -> Iterator[str]:
+    """:func:`matrix_text` one line at a time (each with its ``\\n``), for writing it as it is made."""
     nodes = list(graph)
     if len(nodes) > dense_limit:
-        lines = [f"# adjacency matrix of {len(nodes)} entries, sparse rows: ENTRY: successors (columns holding 1)"]
-        lines += [f"{v}: {' '.join(graph.succ[v])}".rstrip() for v in nodes]
-        return "\n".join(lines) + "\n"
+        yield f"# adjacency matrix of {len(nodes)} entries, sparse rows: ENTRY: successors (columns holding 1)\n"
+        for v in nodes:
+            yield f"{v}: {' '.join(graph.succ[v])}".rstrip() + "\n"
+        return
     width = max([len(v) for v in nodes] + [1])
-    lines = [" " * width + " " + " ".join(v.rjust(width) for v in nodes)]
+    yield " " * width + " " + " ".join(v.rjust(width) for v in nodes) + "\n"
     for v, row in zip(nodes, _rows(graph)):
-        lines.append(v.ljust(width) + " " + " ".join(str(x).rjust(width) for x in row))
-    return "\n".join(lines) + "\n"
+        yield v.ljust(width) + " " + " ".join(str(x).rjust(width) for x in row) + "\n"

@@ -3,79 +3,79 @@
 :func:`render` is the single entry point the CLI uses; each format lives in its
 own module. ``svg`` and ``png`` need Graphviz's ``dot`` program
 (:class:`~.dot.GraphvizMissing` otherwise); ``png`` is the only format that
-returns bytes.
+returns bytes. :func:`render_chunks` gives the same output as a stream of
+chunks: the text views (``unicode``, ``ascii``, ``json``, ``matrix``) are drawn
+while they are written (see :mod:`.stream`), the others come as one chunk.
 """
 
 from __future__ import annotations
 
-import json
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import networkx as nx
 import py_trees
 
-from ..timeline import matrix_text
+from ..timeline import matrix_lines
 from .btcpp import format_btcpp
 from .dot import GraphvizMissing, format_dot, format_png, format_svg
-from .info import node_info, walk
-from .text import text_tree
+from .info import node_info
+from .jsontree import JSON_INDENT_LIMIT, iter_json_tree, tree_data
+from .stream import chunked
+from .text import iter_text_tree, text_tree
 
-__all__ = ["render", "tree_data", "FORMATS", "JSON_INDENT_LIMIT", "text_tree", "node_info", "GraphvizMissing"]
-
-
-def tree_data(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
-    """The tree as nested data: :func:`~.info.node_info` plus ``children`` (built without recursion)."""
-    made: dict[int, dict[str, Any]] = {}
-    top: dict[str, Any] = {}
-    for _, node in walk(root):
-        info = node_info(node)
-        info["children"] = []
-        made[id(node)] = info
-        parent = made.get(id(node.parent)) if node is not root else None
-        if parent is None:
-            top = info
-        else:
-            parent["children"].append(info)
-    return top
+__all__ = ["render", "render_chunks", "tree_data", "FORMATS", "STREAMED", "JSON_INDENT_LIMIT", "text_tree",
+           "iter_text_tree", "iter_json_tree", "node_info", "GraphvizMissing"]  # fmt: skip
 
 
-JSON_INDENT_LIMIT = 2_000
-"""Largest tree (in nodes) whose JSON view is indented by default.
-
-Indentation grows with depth (each tree level nests an object in a
-``children`` list: four more spaces), so an indented 10,000-entry comb, 100
-levels deep, is 48 MB of mostly spaces (2.4 MB compact). Larger trees are written compact
-(no spaces, one line); ``indent=`` chooses either way.
-"""
+def _json(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, indent: int | None | str = "auto", **_: Any) -> Iterator[str]:
+    return iter_json_tree(root, indent)
 
 
-def _json(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, indent: int | None | str = "auto", **_: Any) -> str:
-    data = tree_data(root)
-    if indent == "auto":
-        indent = 2 if sum(1 for _ in walk(root)) <= JSON_INDENT_LIMIT else None
-    if indent is None:
-        return json.dumps(data, separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n"
-    return json.dumps(data, indent=indent, ensure_ascii=False, allow_nan=False) + "\n"
+def _matrix(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> Iterator[str]:
+    return chunked(matrix_lines(graph))
 
 
-def _matrix(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **_: Any) -> str:
-    return matrix_text(graph)
+def _unicode(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> Iterator[str]:
+    return iter_text_tree(root, unicode=True, max_depth=max_depth)
 
 
-def _unicode(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> str:
-    return text_tree(root, unicode=True, max_depth=max_depth)
+def _ascii(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> Iterator[str]:
+    return iter_text_tree(root, unicode=False, max_depth=max_depth)
 
 
-def _ascii(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> str:
-    return text_tree(root, unicode=False, max_depth=max_depth)
+STREAMED: dict[str, Callable[..., Iterator[str]]] = {"unicode": _unicode, "ascii": _ascii, "json": _json, "matrix": _matrix}
+"""The formats drawn as a stream of chunks, each a function ``(root, graph, **options) -> chunks``."""
+
+
+def _joined(view: Callable[..., Iterator[str]]) -> Callable[..., str]:
+    def whole(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, **options: Any) -> str:
+        return "".join(view(root, graph, **options))
+
+    whole.__name__ = whole.__qualname__ = view.__name__
+    whole.__doc__ = view.__doc__
+    return whole
 
 
 FORMATS: dict[str, Callable[..., str | bytes]] = {
-    "unicode": _unicode, "ascii": _ascii, "json": _json, "matrix": _matrix,
+    **{fmt: _joined(view) for fmt, view in STREAMED.items()},
     "dot": format_dot, "svg": format_svg, "png": format_png, "btcpp": format_btcpp,
 }  # fmt: skip
+"""Every format, each a function ``(root, graph, **options) -> str | bytes`` giving the whole output."""
 
 
 def render(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, fmt: str, **options: Any) -> str | bytes:
     """Render *root* (generated from the timeline *graph*) in format *fmt* (a key of :data:`FORMATS`)."""
     return FORMATS[fmt](root, graph, **options)
+
+
+def render_chunks(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, fmt: str, **options: Any) -> Iterator[str | bytes]:
+    """:func:`render` as chunks whose concatenation is its result.
+
+    A streamed format (:data:`STREAMED`) draws its chunks as they are taken,
+    so a writer can put each out before the next is made; any other format is
+    rendered here, whole (a missing Graphviz raises now, not while writing),
+    and comes as one chunk.
+    """
+    if fmt in STREAMED:
+        return STREAMED[fmt](root, graph, **options)
+    return iter([FORMATS[fmt](root, graph, **options)])

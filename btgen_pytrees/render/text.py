@@ -8,35 +8,50 @@ memory, ``-^-`` decorator, ``-->`` leaf) and add that detail after each name.
 
 from __future__ import annotations
 
+from typing import Iterator
+
 import py_trees
 
 from .info import annotation, symbol, walk
+from .stream import chunked
 
-__all__ = ["text_tree"]
+__all__ = ["text_tree", "iter_text_tree"]
 
 
-def text_tree(root: py_trees.behaviour.Behaviour, *, unicode: bool = True, max_depth: int | None = None) -> str:
-    """Render *root* as indented text.
+def iter_text_tree(root: py_trees.behaviour.Behaviour, *, unicode: bool = True, max_depth: int | None = None) -> Iterator[str]:
+    """Render *root* as indented text, as chunks of whole lines (see :mod:`.stream`).
+
+    The first chunk is out after about :data:`~.stream.CHUNK_CHARS` characters'
+    worth of nodes, before the rest of the tree is walked; ``"".join`` of the
+    chunks is :func:`text_tree`.
 
     Args:
         unicode: use unicode punctuation (``·``, ``…``); ASCII only when False
         max_depth: show nodes down to this depth (root = 0); deeper ones are
             summarised as ``... N more nodes``
     """
+    return chunked(_lines(root, unicode, max_depth))
+
+
+def text_tree(root: py_trees.behaviour.Behaviour, *, unicode: bool = True, max_depth: int | None = None) -> str:
+    """The whole of :func:`iter_text_tree` as one string."""
+    return "".join(iter_text_tree(root, unicode=unicode, max_depth=max_depth))
+
+
+def _lines(root: py_trees.behaviour.Behaviour, unicode: bool, max_depth: int | None) -> Iterator[str]:
+    """Each line of the view, with its ``\\n``."""
     sep = " · " if unicode else " - "
     ellipsis = "…" if unicode else "..."
-    lines = []
     hidden = 0
     for depth, node in walk(root):
         if max_depth is not None and depth > max_depth:
             hidden += 1
             continue
         if hidden:
-            lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes")
+            yield f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes\n"
             hidden = 0
         note = annotation(node)
-        line = f"{'    ' * depth}{symbol(node)} {node.name}" + (f"{sep}{note}" if note else "")
-        lines.append(line if unicode else line.encode("ascii", "replace").decode("ascii"))
+        line = f"{'    ' * depth}{symbol(node)} {node.name}" + (f"{sep}{note}" if note else "") + "\n"
+        yield line if unicode else line.encode("ascii", "replace").decode("ascii")
     if hidden:
-        lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes")
-    return "\n".join(lines) + "\n"
+        yield f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes\n"

@@ -194,8 +194,9 @@ def job_validate(path: str, plugins: Sequence[str], max_variations: int | None =
     return Outcome(path, 0, found, problems=warning_lines(case))
 
 
-def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None) -> Outcome:
-    """Render one tree; with a *target* it is an output to write, else the text to print."""
+def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None,
+             indent: int | None | str = "auto") -> Outcome:  # fmt: skip
+    """Render one tree; with a *target* it is an output to write, else the text to print (*indent*: json only)."""
     from .construct import generate
     from .leaves import default_registry
     from .loader import load
@@ -204,7 +205,7 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
 
     registry = default_registry(plugins)
     case = load(path, registry=registry)
-    text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=max_depth)
+    text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=max_depth, indent=indent)
     if target is None:
         return Outcome(path, 0, fmt, outputs=[("-", text)], problems=warning_lines(case))
     return Outcome(path, 0, fmt, outputs=[(target, text)], problems=warning_lines(case))

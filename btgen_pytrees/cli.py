@@ -24,7 +24,7 @@ from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
 from .overlap import warning_lines
 from .output import OutputError, check_target, commit, is_direct, same_file
-from .render import FORMATS, GraphvizMissing, render_chunks
+from .render import FORMATS, JSON_INDENT_LIMIT, GraphvizMissing, render_chunks
 from .systems import SystemSpec
 from .sweep.case import has_variations
 from .sweep.command import Refused
@@ -272,6 +272,11 @@ def _show_format(args: argparse.Namespace) -> str:
     return "unicode" if args.output or _can_encode(sys.stdout) else "ascii"
 
 
+def _check_indent(args: argparse.Namespace, fmt: str) -> None:
+    if args.indent != "auto" and fmt != "json":
+        raise UsageError(f"--indent applies to the json format only, not {fmt}")
+
+
 def _refuse_binary_to_terminal(fmt: str, path: str | None) -> None:
     if fmt in BINARY_FORMATS and (path is None or path == "-" or same_file(path, "/dev/stdout")) and sys.stdout.isatty():
         raise UsageError(f"--format {fmt} is binary and stdout is a terminal: write it with -o FILE.{fmt} or redirect stdout")
@@ -285,6 +290,7 @@ def cmd_show(args: argparse.Namespace) -> int:
         fmt = args.format or ("unicode" if args.out_dir or _can_encode(sys.stdout) else "ascii")
         if not args.out_dir and fmt in BINARY_FORMATS:
             raise UsageError(f"--format {fmt} with several files needs --out-dir")
+        _check_indent(args, fmt)
         suffix = FORMAT_SUFFIXES.get(fmt, "." + fmt)
         if args.out_dir:
             _check_out_dir(args, files, writes_json=suffix == ".json")
@@ -299,8 +305,9 @@ def cmd_show(args: argparse.Namespace) -> int:
 
         return _batch(args, files, batch.job_show,
                       lambda i: (tuple(args.plugin or ()), fmt, None if targets[i] is None else targets[i] + suffix,
-                                 args.max_depth), after=shown)  # fmt: skip
+                                 args.max_depth, args.indent), after=shown)  # fmt: skip
     fmt = _show_format(args)
+    _check_indent(args, fmt)
     _check_output(args.output, "-o", [args.file])
     _refuse_binary_to_terminal(fmt, args.output)
     registry = _registry(args)
@@ -308,7 +315,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     for line in warning_lines(case):
         _err(line)
     try:  # the text views are drawn while they are written (render_chunks)
-        chunks = render_chunks(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth)
+        chunks = render_chunks(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth,
+                               indent=args.indent)  # fmt: skip
     except GraphvizMissing as missing:  # svg/png without Graphviz: a hint, not a traceback
         raise UsageError(str(missing)) from None
     if args.output is None or args.output == "-":
@@ -500,6 +508,25 @@ def _non_negative(text: str) -> int:
     return value
 
 
+MAX_INDENT = 16
+"""Most spaces ``--indent`` may ask for: every tree level indents by twice that (the node and its
+``children`` list), so a large N on a deep tree multiplies the file's size for nothing."""
+
+
+def _indent(text: str) -> int | None | str:
+    """``--indent``: a whole number of spaces 0 to :data:`MAX_INDENT`, ``none`` (compact) or ``auto``."""
+    word = text.strip().lower()
+    if word in ("none", "auto"):
+        return None if word == "none" else "auto"
+    try:
+        value = int(word)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of spaces, 'none' or 'auto'") from None
+    if not 0 <= value <= MAX_INDENT:
+        raise argparse.ArgumentTypeError(f"{value} must be between 0 and {MAX_INDENT} spaces")
+    return value
+
+
 def _positive(text: str) -> int:
     try:
         value = int(float(text)) if "e" in text.lower() else int(text)
@@ -539,6 +566,8 @@ def _parser() -> argparse.ArgumentParser:
     show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: from the -o suffix, else unicode if the terminal can show it, else ascii)")
     show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout (.svg/.png/.dot/.json/.xml/.txt choose the format)")
     show.add_argument("--max-depth", type=_non_negative, metavar="N", help="text and dot/svg/png formats: show nodes down to depth N only (root = 0); deeper subtrees are collapsed")
+    show.add_argument("--indent", type=_indent, default="auto", metavar="N|none",
+                      help=f"json format: indent N spaces per level (0 to {MAX_INDENT}; 0: a key per line), or 'none': compact, one line (default: 2 up to {JSON_INDENT_LIMIT:,} nodes, compact above)")  # fmt: skip
     show.set_defaults(func=cmd_show)
 
     validate = sub.add_parser("validate", parents=[plugin, many], help="check test case files; exit 0 only if all are valid")

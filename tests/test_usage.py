@@ -43,6 +43,20 @@ def test_max_depth_must_be_a_non_negative_whole_number(depth: str) -> None:
     usage_error(cli("show", FIG1, "--max-depth", depth, "-f", "dot"), "--max-depth")
 
 
+@pytest.mark.parametrize("indent", ["-1", "17", "x", "1.5", "", "2e3", "None2", "99999999999999999999"])
+def test_indent_must_be_spaces_or_none(indent: str) -> None:
+    usage_error(cli("show", FIG1, "-f", "json", "--indent", indent), "--indent")
+
+
+@pytest.mark.parametrize("fmt", ["unicode", "dot", "matrix"])
+def test_indent_applies_to_json_only(fmt: str, tmp_path: pathlib.Path) -> None:
+    usage_error(cli("show", FIG1, "-f", fmt, "--indent", "2"), "--indent applies to the json format only")
+    usage_error(cli("show", FIG1, FIG1, "--out-dir", str(tmp_path / "out"), "-f", fmt, "--indent", "none"),
+                "--indent applies to the json format only")  # fmt: skip
+    usage_error(cli("show", FIG1, "-o", str(tmp_path / "t.txt"), "--indent", "0"), "not unicode")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_out_dir_that_is_a_file_or_cannot_be_made(tmp_path: pathlib.Path) -> None:
     afile = tmp_path / "afile"
     afile.write_text("x")

@@ -3,11 +3,23 @@
 from __future__ import annotations
 
 import json
+import pathlib
+import subprocess
+import sys
 
+import pytest
 from helpers import case, entry
 
 import btgen_pytrees
-from btgen_pytrees.render import JSON_INDENT_LIMIT, render
+from btgen_pytrees.render import JSON_INDENT_LIMIT, render, tree_data
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+FIG1 = ROOT / "examples" / "fig1.json"
+
+
+def cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "btgen_pytrees", *args], capture_output=True, text=True,
+                          timeout=120, cwd=ROOT)  # fmt: skip
 
 
 def _comb(steps: int) -> dict:
@@ -32,3 +44,35 @@ def test_large_tree_is_compact_small_tree_indented() -> None:
         assert text.endswith("\n") and (text.count("\n") > 1) is indented
         chosen = render(root, btgen_pytrees.timeline(loaded), "json", indent=2 if not indented else None)
         assert json.loads(text) == json.loads(chosen) and len(text) != len(chosen)
+
+
+def _dumps(data: dict, indent: int | None) -> str:  # type: ignore[type-arg]
+    if indent is None:
+        return json.dumps(data, separators=(",", ":"), ensure_ascii=False) + "\n"
+    return json.dumps(data, indent=indent, ensure_ascii=False) + "\n"
+
+
+@pytest.mark.parametrize("given, indent", [("0", 0), ("1", 1), ("2", 2), ("4", 4), ("16", 16), ("none", None),
+                                           ("NONE", None), ("auto", 2)])  # fmt: skip
+def test_show_indent_chooses_the_json_layout(given: str, indent: int | None, tmp_path: pathlib.Path) -> None:
+    data = tree_data(btgen_pytrees.generate(btgen_pytrees.load(FIG1)))
+    shown = cli("show", str(FIG1), "-f", "json", "--indent", given)
+    assert shown.returncode == 0 and shown.stderr == "", shown.stderr
+    assert shown.stdout == _dumps(data, indent)
+    target = tmp_path / "tree.json"  # the format from the suffix
+    assert cli("show", str(FIG1), "-o", str(target), "--indent", given).returncode == 0
+    assert target.read_text() == _dumps(data, indent)
+
+
+def test_show_indent_overrides_the_size_rule_both_ways(tmp_path: pathlib.Path) -> None:
+    large = tmp_path / "large.json"
+    large.write_text(json.dumps(_comb(JSON_INDENT_LIMIT // 4)))
+    data = tree_data(btgen_pytrees.generate(btgen_pytrees.load(str(large))))
+    assert cli("show", str(large), "-f", "json").stdout == _dumps(data, None)  # default: compact above the limit
+    assert cli("show", str(large), "-f", "json", "--indent", "2").stdout == _dumps(data, 2)
+    assert cli("show", str(FIG1), "-f", "json", "--indent", "none").stdout.count("\n") == 1
+    out = tmp_path / "out"  # batch mode passes it to every file
+    result = cli("show", str(FIG1), str(large), "--out-dir", str(out), "-f", "json", "--indent", "3")
+    assert result.returncode == 0, result.stderr
+    assert (out / "large.json").read_text() == _dumps(data, 3)
+    assert (out / "fig1.json").read_text() == _dumps(tree_data(btgen_pytrees.generate(btgen_pytrees.load(FIG1))), 3)

@@ -14,7 +14,6 @@ import random
 import re
 import shutil
 import struct
-import time
 import xml.etree.ElementTree as ET
 from typing import Any
 
@@ -244,16 +243,32 @@ def test_png_is_a_png(fig1_path: str, tmp_path: Any) -> None:
     assert width > 500 and height > 200
 
 
+def _drawn(root: py_trees.behaviour.Behaviour, svg: ET.Element) -> tuple[int, int]:
+    """(drawn nodes, drawn edges) of *svg* beyond what *root* accounts for: a node per tree node, an edge
+    per parent-child link and per trigger wait. What is left is the legend's."""
+    classes = [g.get("class") for g in svg.iter(f"{SVG}g")]
+    nodes = sum(1 for _ in walk(root))
+    waits = sum(len(node.waits_for) for _, node in walk(root) if isinstance(node, Trigger))
+    return classes.count("node") - nodes, classes.count("edge") - (nodes - 1) - waits
+
+
 @needs_dot
-def test_500_entries_render_to_svg_in_seconds() -> None:
+def test_500_entries_render_to_svg_and_the_picture_grows_with_the_tree_only() -> None:
+    """A 500-entry tree is drawn whole, and what Graphviz lays out is exactly the tree plus the legend.
+
+    The layout's time is not asserted (speed is measured in benchmarks, and a layout that never ends is
+    cut by GRAPHVIZ_TIMEOUT); what it depends on is the size of the graph handed to Graphviz, checked
+    here exactly: one node per tree node, one edge per link and trigger wait, the same legend as a
+    50-entry picture - no node or edge that grows faster than the tree.
+    """
     root = generate(big_case(500))
-    start = time.perf_counter()
     svg = graphviz_render(dot_source(root), "svg")
-    elapsed = time.perf_counter() - start
     tree = ET.fromstring(svg)
     ids = {g.get("id") for g in tree.iter(f"{SVG}g")}
     assert all(f"entry-E{i}" in ids for i in range(500))
-    assert elapsed < 30, elapsed  # about 2 s here; generous for slow CI machines
+    small = generate(big_case(50))
+    legend = _drawn(small, ET.fromstring(graphviz_render(dot_source(small), "svg")))
+    assert _drawn(root, tree) == legend and 0 < legend[0] < 20 and 0 <= legend[1] < 20, legend
     collapsed = ET.fromstring(graphviz_render(dot_source(root, max_depth=3), "svg"))
     assert sum(1 for _ in collapsed.iter(f"{SVG}g")) < sum(1 for _ in tree.iter(f"{SVG}g")) / 2
 

@@ -20,9 +20,10 @@ in-process, as ``validate FILE``, ``show FILE -f json`` and ``run FILE``. Assert
 * for exit 2, stderr holds exactly one ``FILE: /json/pointer: message`` line per
   problem, and every pointer points into the document (or at a defaulted key of an
   object in it);
-* each command finishes within :data:`SECONDS` of wall clock (``run`` is only
-  started when the case takes at most :data:`RUN_TICKS` ticks); a hang is cut by an
-  alarm after :data:`HANG_SECONDS`.
+* each command ends (``run`` is only started when the case takes at most
+  :data:`RUN_TICKS` ticks): one still running after :data:`HANG_SECONDS` is cut by
+  an alarm and the example fails. That is a liveness bound, not a speed check (speed
+  is measured in benchmarks): the commands take well under a second here.
 
 CI runs 200 examples, derandomized (the same ones every time; ~4 s). A longer,
 random run - do one before a release or after touching the loader, expressions
@@ -52,7 +53,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 import tracemalloc
 import warnings
 from dataclasses import dataclass
@@ -69,11 +69,11 @@ from btgen_pytrees.loader import MAX_FILE_BYTES, MAX_NESTING, load_json
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
-SECONDS = 5.0
-"""Wall-clock bound of one CLI command on one mutated file."""
-
 HANG_SECONDS = 30
-"""A command still running after this is interrupted (SIGALRM) and the example fails."""
+"""A command still running after this is interrupted (SIGALRM) and the example fails.
+
+Generous on purpose: it separates "ends" from "hangs" (or does work far beyond what the input
+size calls for) on any machine, and is never a measure of speed."""
 
 RUN_TICKS = 1000
 """``run`` is fuzzed only on cases of at most this many ticks (``timeout / tick``)."""
@@ -365,7 +365,7 @@ class Hang(BaseException):
 
 @contextlib.contextmanager
 def alarm(seconds: float) -> Iterator[None]:
-    if not hasattr(signal, "setitimer"):  # Windows: only the measured time bound applies
+    if not hasattr(signal, "setitimer"):  # Windows: no alarm, a hang is not cut
         yield
         return
 
@@ -386,7 +386,6 @@ class Result:
     code: int
     out: str
     err: bytes
-    seconds: float
     warnings: list[str]
 
 
@@ -394,16 +393,14 @@ def cli(*args: str) -> Result:
     """``main(args)`` with streams like a real process's: strict UTF-8 stdout, backslashreplace stderr."""
     out = io.TextIOWrapper(io.BytesIO(), encoding="utf-8", errors="strict")
     err = io.TextIOWrapper(io.BytesIO(), encoding="utf-8", errors="backslashreplace")
-    start = time.perf_counter()
     with alarm(HANG_SECONDS), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), \
             warnings.catch_warnings(record=True) as caught:  # fmt: skip
         warnings.simplefilter("always")
         code = main(list(args))
-    seconds = time.perf_counter() - start
     out.flush()
     err.flush()
     shown = [f"{w.category.__name__}: {w.message}" for w in caught if not issubclass(w.category, DeprecationWarning)]
-    return Result(code, out.buffer.getvalue().decode("utf-8"), err.buffer.getvalue(), seconds, shown)  # type: ignore[attr-defined]
+    return Result(code, out.buffer.getvalue().decode("utf-8"), err.buffer.getvalue(), shown)  # type: ignore[attr-defined]
 
 
 def _resolves(doc: Any, path: tuple[Any, ...]) -> bool:
@@ -446,7 +443,6 @@ def check_command(path: pathlib.Path, result: Result, allowed: set[int]) -> None
     assert result.code in allowed, (result.code, result.err[-2000:])
     assert b"Traceback" not in result.err
     assert not result.warnings, result.warnings
-    assert result.seconds < SECONDS, f"took {result.seconds:.1f} s"
     if result.code == 2:
         assert result.out == ""
         check_invalid(path, result)
@@ -630,9 +626,8 @@ def test_50_mb_file_is_refused_in_bounded_memory(tmp_path: pathlib.Path) -> None
         except InvalidTestCase as exc:
             caught.append(exc)
 
-    start = time.perf_counter()
-    peak = _peak_bytes(load)
-    assert time.perf_counter() - start < 1
+    with alarm(HANG_SECONDS):  # a liveness bound only: the memory peak shows the file was not read
+        peak = _peak_bytes(load)
     assert peak < 1024 * 1024, f"peak {peak} bytes"
     [problem] = caught[0].problems
     assert problem.pointer == "/" and problem.cause == "limit"
@@ -658,11 +653,18 @@ def test_limit_boundary(tmp_path: pathlib.Path) -> None:
 @pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="needs /dev/zero")
 def test_endless_file_is_refused_unread() -> None:
     """A device whose size stat() cannot tell is not read at all (issue 13: only regular files are inputs)."""
-    start = time.perf_counter()
-    with pytest.raises(InvalidTestCase) as info:
-        btgen_pytrees.load("/dev/zero")
-    assert time.perf_counter() - start < 5
-    assert info.value.problems[0].message == "not a regular file (a device)"
+    caught: list[InvalidTestCase] = []
+
+    def load() -> None:
+        try:
+            btgen_pytrees.load("/dev/zero")
+        except InvalidTestCase as exc:
+            caught.append(exc)
+
+    with alarm(HANG_SECONDS):  # reading it would never end; the bound only tells "ends" from "hangs"
+        peak = _peak_bytes(load)
+    assert peak < 1024 * 1024, f"peak {peak} bytes"  # not a byte of it was held: refused before reading
+    assert caught[0].problems[0].message == "not a regular file (a device)"
 
 
 def test_10_mb_files(tmp_path: pathlib.Path) -> None:
@@ -670,15 +672,14 @@ def test_10_mb_files(tmp_path: pathlib.Path) -> None:
     padded = tmp_path / "padded.json"
     text = json.dumps(FIG1)
     padded.write_text(text[:-1] + " " * (10 * 1024 * 1024) + "}")
-    start = time.perf_counter()
-    assert len(btgen_pytrees.load(padded).entries) == 6
+    with alarm(HANG_SECONDS):  # liveness, not speed: anything quadratic in 10 MB would not end for hours
+        assert len(btgen_pytrees.load(padded).entries) == 6
     long = tmp_path / "long.json"
     long.write_text(json.dumps({**FIG1, "description": "d" * (10 * 1024 * 1024)}))
-    with pytest.raises(InvalidTestCase) as info:
+    with alarm(HANG_SECONDS), pytest.raises(InvalidTestCase) as info:
         btgen_pytrees.load(long)
     [problem] = info.value.problems
     assert problem.pointer == "/description" and "is too long" in problem.message and len(problem.message) <= 200
-    assert time.perf_counter() - start < 5
 
 
 # ---------------------------------------------------------------------------

@@ -57,8 +57,11 @@ class Leaf(py_trees.behaviour.Behaviour):
             raise KeyboardInterrupt
         if how == "none":
             return None
-        if how == "sleep":
-            time.sleep(0.05)
+        if how == "block":  # a run that cannot end by itself: says it is running, then waits for a signal
+            ready = os.environ.get("KILLER_READY")
+            if ready:
+                open(os.path.join(ready, str(os.getpid())), "w").close()
+            time.sleep(3600)
             return Status.RUNNING
         if how == "bad_terminate":
             return Status.RUNNING
@@ -78,7 +81,7 @@ def factory(entry, env):
 
 
 ACTIONS = ("die", "sigkill", "sysexit", "kbint", "bad_setup", "bad_terminate", "raising_factory", "bad_factory",
-           "sleep", "ok", "none")
+           "block", "ok", "none")
 
 
 def register(registry):
@@ -192,28 +195,54 @@ def test_plugin_exiting_at_import_or_register_is_exit_2(tmp_path: pathlib.Path, 
     assert batch.returncode == 2 and "2 files: 2 invalid" in batch.stdout
 
 
+STOPPED_WITHIN = 60
+"""How long a signalled command may take to end, in seconds: a liveness bound, not a speed check.
+
+The runs it interrupts block for an hour and never end by themselves, so a command that waited
+for them (rather than stopping its workers, SIGKILL after a 0.5 s grace) would not end at all;
+one that stops them ends in about a second. The bound only has to separate "ends" from "never
+ends" on any machine, so it is generous."""
+
+
+def wait_until_running(ready: pathlib.Path, proc: subprocess.Popen[str], *also: pathlib.Path) -> None:
+    """Return once a ``block`` leaf has started (it writes a file into *ready*) and every path in *also* exists."""
+    deadline = time.monotonic() + 120  # a hang guard only: readiness is the file, not the time
+    while not (any(ready.iterdir()) and all(p.exists() for p in also)):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the blocking leaf never started"
+        time.sleep(0.02)
+
+
+def stop_leftovers(mark: str) -> None:
+    """Kill (by pid) whatever this test's command left running, so a failing test leaks no process."""
+    for pid in marked_processes(mark):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_stops_a_batch_at_once_with_a_partial_summary(tmp_path: pathlib.Path, plugin_env: dict[str, str], signum: int) -> None:
     cases = tmp_path / "cases"
     cases.mkdir()
     (cases / "a_quick.json").write_text(json.dumps(one("ok")))
-    for i in range(6):  # each would run ~10 s of wall-clock time (a 0.05 s sleep per tick)
-        (cases / f"slow{i}.json").write_text(json.dumps(one("sleep", timeout=20)))
+    for i in range(6):  # runs that never end by themselves (the leaf blocks for an hour)
+        (cases / f"slow{i}.json").write_text(json.dumps(one("block", timeout=20)))
     out = tmp_path / "out"
+    ready = tmp_path / "ready"
+    ready.mkdir()
     proc = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "run", str(cases), "--plugin", "killer_plugin",
                              "-j", "2", "--out-dir", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, cwd=ROOT, env=plugin_env)  # fmt: skip
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not (out / "a_quick.report.json").exists():
-        time.sleep(0.05)
-    assert (out / "a_quick.report.json").exists()
-    time.sleep(0.3)
-    sent = time.monotonic()
-    proc.send_signal(signum)
-    stdout, stderr = proc.communicate(timeout=30)
-    took = time.monotonic() - sent
+                            text=True, cwd=ROOT, env=dict(plugin_env, KILLER_READY=str(ready)))  # fmt: skip
+    try:
+        wait_until_running(ready, proc, out / "a_quick.report.json")  # one file done, a slow one running
+        proc.send_signal(signum)
+        stdout, stderr = proc.communicate(timeout=STOPPED_WITHIN)
+    finally:
+        proc.kill()
+        stop_leftovers(plugin_env["BTGEN_TEST_MARK"])
     assert proc.returncode == 128 + signum, (stdout, stderr)
-    assert took < 3, f"took {took:.1f} s to stop"
     assert "Traceback" not in stderr
     assert "a_quick.json" in stdout and "NOT RUN" in stdout and "7 files: 1 ok, 6 not run" in stdout
     assert not marked_processes(plugin_env["BTGEN_TEST_MARK"])
@@ -223,14 +252,20 @@ def test_a_signal_stops_a_batch_at_once_with_a_partial_summary(tmp_path: pathlib
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_stops_a_single_run_and_writes_nothing(tmp_path: pathlib.Path, plugin_env: dict[str, str], signum: int) -> None:
     path = tmp_path / "slow.json"
-    path.write_text(json.dumps(one("sleep", timeout=20)))
+    path.write_text(json.dumps(one("block", timeout=20)))
     report = tmp_path / "r.json"
+    ready = tmp_path / "ready"
+    ready.mkdir()
     proc = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "run", str(path), "--plugin", "killer_plugin",
                              "--json", str(report)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=ROOT, env=plugin_env)  # fmt: skip
-    time.sleep(2)
-    proc.send_signal(signum)
-    stdout, stderr = proc.communicate(timeout=30)
+                            cwd=ROOT, env=dict(plugin_env, KILLER_READY=str(ready)))  # fmt: skip
+    try:
+        wait_until_running(ready, proc)  # the run is under way: its leaf is being ticked
+        proc.send_signal(signum)
+        stdout, stderr = proc.communicate(timeout=STOPPED_WITHIN)
+    finally:
+        proc.kill()
+        stop_leftovers(plugin_env["BTGEN_TEST_MARK"])
     assert proc.returncode == 128 + signum, (stdout, stderr)
     assert stderr.strip() == f"btgen_pytrees: interrupted by {signal.Signals(signum).name}"
     assert not report.exists() and not [p for p in tmp_path.iterdir() if ".tmp" in p.name]

@@ -151,21 +151,31 @@ class _Walk:
                 del self.succ[fork_of]
         else:
             stack.append((seq, first, level))
+        succ, pred, consume = self.succ, self.pred, self.consume
         while stack:
             seq, v, level = stack.pop()
             out = _ChainWriter(seq, level)
             while True:
-                successors = self.succ[v]
+                successors = succ[v]
+                if len(successors) == 1:  # the usual step, without the lists singles() builds
+                    (s,) = successors
+                    if len(pred[s]) == 1:  # s continues v's Sequence: no fork, no hoist, no Completion
+                        out.add(self.leaf(v, wrap=False))
+                        if consume:
+                            self.drop(v)
+                            del succ[v]
+                        v = s
+                        continue
                 singles = self.singles(v) if successors else []
                 # fork Parallel, branch Sequence, part Sequence (a branch longer than CHUNK),
                 # Completion, leaf: up to five more levels
                 hoist = len(singles) > 1 and out.level + 5 > self.max_depth
                 # a successor with other predecessors is a join, whose trigger waits for v
                 out.add(self.leaf(v, wrap=hoist or len(singles) != len(successors)))
-                if self.consume:  # v's leaf and row are done: drop them from the graph (a hoisted fork reads its row later)
-                    del self.entry_of[v]
+                if consume:  # v's leaf and row are done: drop them from the graph (a hoisted fork reads its row later)
+                    self.drop(v)
                     if not hoist:
-                        del self.succ[v]
+                        del succ[v]
                 if not singles:
                     break
                 if hoist:
@@ -177,6 +187,16 @@ class _Walk:
                     continue
                 self.fork(out, v, singles, stack)
                 break
+
+    def drop(self, v: str) -> None:
+        """Forget *v*'s attributes, and its column unless it is a join's (consume mode, once *v*'s leaf is built).
+
+        Only the predecessors' row walks read a column (``singles``), and they all ran before *v*
+        was reached - unless *v* is a join, whose predecessors may be walked later.
+        """
+        del self.entry_of[v]
+        if len(self.pred[v]) < 2:
+            del self.pred[v]
 
     def singles(self, v: str) -> list[str]:
         """Successors of *v* that have no other predecessor (they continue *v*'s Sequence)."""
@@ -198,11 +218,10 @@ class _Walk:
         root = WakingParallel("timeline", self.env)
         roots = Parallel("roots", _all())
         root.add_child(Sequence("begin", memory=True, children=[RunStart(self.env), roots]))
-        for v, p in self.pred.items():  # file order
-            if not p:
-                seq = Sequence(f"chain {v}", memory=True)
-                roots.add_child(seq)
-                self.chain(seq, v, self.depth + 3)
+        for v in [v for v, p in self.pred.items() if not p]:  # file order (listed first: the walk may drop columns)
+            seq = Sequence(f"chain {v}", memory=True)
+            roots.add_child(seq)
+            self.chain(seq, v, self.depth + 3)
         while self.heads:
             _, v, preds, join, fork_of = heapq.heappop(self.heads)
             name = f"after {fork_of}" if fork_of else f"join {v}"

@@ -106,6 +106,7 @@ class Registry:
                  systems: Mapping[str, "SystemType"] | None = None):  # fmt: skip
         self._types: dict[tuple[str, str | None], LeafType] = dict(types or {})
         self._systems: dict[str, SystemType] = dict(systems or {})
+        self._classes: dict[type, bool] = {}  # leaf classes seen by build(): Behaviours, and whether defined in this package
 
     def register(
         self,
@@ -161,10 +162,14 @@ class Registry:
                 raise
             detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
             raise FactoryError(f"{item.id}: the factory for {kind} {item.action!r} raised {detail}") from exc
-        if not isinstance(node, py_trees.behaviour.Behaviour):
-            raise FactoryError(f"{item.id}: the factory for {kind} {item.action!r} returned {type(node).__name__}, not a py_trees Behaviour")
+        cls = type(node)
+        own = self._classes.get(cls)
+        if own is None:  # first leaf of this class: is it a Behaviour, is it one of ours? (an ABC check per leaf adds up)
+            if not isinstance(node, py_trees.behaviour.Behaviour):
+                raise FactoryError(f"{item.id}: the factory for {kind} {item.action!r} returned {cls.__name__}, not a py_trees Behaviour")
+            own = self._classes[cls] = cls.__module__.startswith("btgen_pytrees.")
         setattr(node, "btgen_entry" if is_entry else "btgen_criterion", item)
-        if not type(node).__module__.startswith("btgen_pytrees."):
+        if not own:
             node.update = _checked_update(node)  # type: ignore[method-assign]
         return node
 

@@ -180,6 +180,11 @@ def _reject_constant(name: str) -> Any:
 
 def load_json(path: str | os.PathLike[str]) -> Any:
     """Read a JSON file with the limits of a test case; problems raise :class:`InvalidTestCase`."""
+    return parse_json(*_read(path))
+
+
+def _read(path: str | os.PathLike[str]) -> tuple[bytes, str]:
+    """The bytes of a test-case file (``-``: standard input) within the size limit, and its name for errors."""
     source = os.fspath(path)
     if source == "-":  # standard input, read up to the limit
         import sys
@@ -209,7 +214,7 @@ def load_json(path: str | os.PathLike[str]) -> Any:
             raise InvalidTestCase([Problem((), f"cannot read file: {why}", "json")], source) from None
     if len(raw) > MAX_FILE_BYTES:  # the file grew while we looked
         raise InvalidTestCase([Problem((), f"file is larger than {MAX_FILE_BYTES} bytes", "limit")], source)
-    return parse_json(raw, source)
+    return raw, source
 
 
 def parse_json(raw: bytes | str, source: str = "<string>") -> Any:
@@ -277,17 +282,18 @@ _PLAIN = (bool, type(None))
 _BIG = int(MAX_MAGNITUDE)
 
 
-def _suspicious(data: Any) -> bool:
+def _suspicious(data: Any, depth: int = 0) -> bool:
     """A quick pass without paths: could :func:`_value_problems` find anything?
 
     Valid documents are the common case; for them this one cheap walk (one regex
     over all strings joined, a bound on integers, a depth count) replaces the
-    detailed walk that builds a JSON path for every container.
+    detailed walk that builds a JSON path for every container. *depth*: where
+    *data* sits in its document (the root is 0), for a part checked on its own.
     """
     if not isinstance(data, (dict, list)):
         return True
     strings: list[str] = []
-    stack: list[tuple[Any, int]] = [(data, 0)]
+    stack: list[tuple[Any, int]] = [(data, depth)]
     while stack:
         container, depth = stack.pop()
         if depth >= MAX_NESTING:
@@ -872,6 +878,14 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
     are kept when *system* names the same type and gives none.
     """
     registry = registry if registry is not None else default_registry()
+    from .onepass import from_data  # the one pass for valid documents (imports this module)
+
+    case = from_data(data, source, registry, system)
+    return case if case is not None else _validate(data, source, registry, system)
+
+
+def _validate(data: Any, source: str, registry: Registry, system: SystemSpec | None) -> TestCase:
+    """The detailed checks, stage by stage: every problem, each at its JSON path."""
     _suggestions.left = MAX_SUGGESTIONS  # "did you mean" budget of this document
     problems = sorted(set(_value_problems(data)), key=_sort_key)  # stage 0 (fuzz findings, see above)
     if problems:
@@ -897,6 +911,12 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
         checker.cycles(entries)
     if checker.problems:
         raise InvalidTestCase(sorted(set(checker.problems), key=_sort_key), source)
+    return _case(data, entries, criteria, checker.spec, registry, source)
+
+
+def _case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Criterion], spec: SystemSpec,
+          registry: Registry, source: str) -> TestCase:  # fmt: skip
+    """The :class:`TestCase` of a valid document, from its checked entries and criteria."""
     relation = data.get("oracle", {}).get("relation", "&&")
     if isinstance(relation, str):
         relation = {"record": relation, "others": relation}
@@ -912,7 +932,7 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
         criteria=tuple(criteria),
         relation=MappingProxyType({"record": relation.get("record", "&&"), "others": relation.get("others", "&&")}),
         source=source,
-        system=checker.spec,
+        system=spec,
         require_complete=bool(data.get("require_complete", False)),
         warnings=tuple(overlapping_writes(entries, registry)),
     )
@@ -940,4 +960,9 @@ def load(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Regist
     """
     if isinstance(source, Mapping):
         return validate(source, "<dict>", registry, system)
-    return validate(load_json(source), os.fspath(source), registry, system)
+    from .onepass import from_text  # the one pass for valid documents (imports this module)
+
+    raw, where = _read(source)
+    registry = registry if registry is not None else default_registry()
+    case = from_text(raw, os.fspath(source), registry, system)
+    return case if case is not None else _validate(parse_json(raw, where), os.fspath(source), registry, system)

@@ -29,7 +29,8 @@ import networkx as nx
 
 from .model import TestCase
 
-__all__ = ["timeline", "adjacency_matrix", "topological_order", "matrix_text", "matrix_lines", "DENSE_LIMIT"]
+__all__ = ["timeline", "adjacency_matrix", "topological_order", "topological_positions", "matrix_text", "matrix_lines",
+           "DENSE_LIMIT"]
 
 
 def timeline(case: TestCase) -> nx.DiGraph:
@@ -89,6 +90,19 @@ def topological_order(graph: nx.DiGraph) -> list[str]:
     if len(order) != len(nodes):
         raise nx.NetworkXUnfeasible("the timeline has a cycle")
     return order
+
+
+def topological_positions(graph: nx.DiGraph) -> dict[str, int]:
+    """Each node's place in :func:`topological_order` (the file index when that is the file order).
+
+    Raises:
+        networkx.NetworkXUnfeasible: the graph has a cycle
+    """
+    pred = graph._pred
+    index = {v: i for i, v in enumerate(pred)}
+    if all(index[p] < i for i, preds in enumerate(pred.values()) for p in preds):
+        return index  # the usual case, in one pass: no second dict
+    return {v: i for i, v in enumerate(topological_order(graph))}
 
 
 def adjacency_matrix(graph: nx.DiGraph) -> list[list[int]]:

@@ -43,7 +43,7 @@ from py_trees.composites import Parallel, Sequence
 
 from ..leaves import Environment, Registry
 from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
-from ..timeline import topological_order
+from ..timeline import topological_positions
 
 __all__ = ["execute_subtree", "MAX_DEPTH", "EXECUTE_DEPTH"]
 
@@ -126,7 +126,7 @@ class _Walk:
         self.registry = registry
         self.depth = depth
         self.max_depth = max_depth
-        self.position = {v: i for i, v in enumerate(topological_order(graph))}
+        self.position = topological_positions(graph)
         # column walk: (topological position, first entry, predecessors, join, hoisted fork's entry or "")
         position, entry_of = self.position, self.entry_of
         self.heads: list[tuple[int, str, tuple[str, ...], str, str]] = [
@@ -151,7 +151,8 @@ class _Walk:
                 del self.succ[fork_of]
         else:
             stack.append((seq, first, level))
-        succ, pred, consume = self.succ, self.pred, self.consume
+        succ, pred, entry_of, consume = self.succ, self.pred, self.entry_of, self.consume
+        build, env = self.registry.build, self.env
         while stack:
             seq, v, level = stack.pop()
             out = _ChainWriter(seq, level)
@@ -160,10 +161,11 @@ class _Walk:
                 if len(successors) == 1:  # the usual step, without the lists singles() builds
                     (s,) = successors
                     if len(pred[s]) == 1:  # s continues v's Sequence: no fork, no hoist, no Completion
-                        out.add(self.leaf(v, wrap=False))
-                        if consume:
-                            self.drop(v)
-                            del succ[v]
+                        out.add(build(entry_of[v]["entry"], env))
+                        if consume:  # what drop() does, inline
+                            del entry_of[v], succ[v]
+                            if len(pred[v]) < 2:
+                                del pred[v]
                         v = s
                         continue
                 singles = self.singles(v) if successors else []

@@ -1,0 +1,482 @@
+"""One pass over a valid test case: decide validity and build the :class:`TestCase` together.
+
+The loader's detailed checks (:func:`btgen_pytrees.loader.validate`) run in stages, each a
+walk over the whole document: a JSON parse with a duplicate-key hook, a walk for values no
+later stage could handle, the JSON Schema, then each entry's meaning, a cycle check, and
+finally the model. For a valid document - the common case - that is five passes over
+data that is only read, and the parsed document (two containers per entry) stays alive
+through all of them while the model is built next to it. On a 100,000-entry timeline
+the parsed document's containers made the cyclic garbage collector's full collections
+(which walk every live container) the largest cost of loading.
+
+This module decides the same question in one pass and answers only *valid* - with the
+very :class:`TestCase` the detailed checks build - or *not decided here* (``None``): then
+the caller runs the detailed checks from the start, so every error message, path and
+order is theirs, unchanged. It is therefore conservative: anything outside what it
+checks itself (a ``system`` other than the built-in simulated one, whose ``describe``
+may read the whole document; ``parameters``/``variations``; a value of an unexpected
+type) is left to the detailed checks.
+
+* **Reading** (:func:`from_text`): the top-level object is read key by key with the
+  ``json`` module's own scanner (the one ``json.loads`` uses, with the same
+  duplicate-key hook and constants rule), and the ``execute`` array element by
+  element: each entry is checked and turned into an :class:`~btgen_pytrees.model.Entry`
+  as soon as it is read, and its parsed dict is freed at once. Anything the scanner or
+  this reader does not accept (invalid JSON, a duplicate key, a trailing comma, extra
+  data) is left to the detailed checks, which report it.
+* **Each entry** gets, in one go, what the stages check: values (strings without lone
+  surrogates, numbers within :data:`~btgen_pytrees.loader.MAX_MAGNITUDE`, nesting), the
+  entry's part of the schema (keys, types, the id pattern, lengths, enums: read from
+  the schema file itself, see :func:`_entry_rules`), the id is new, ``after`` names
+  other entries once each, the action is registered and its ``params`` fit its schema.
+  Params are checked once per distinct value, as the detailed checks do, and entries
+  with equal params share one read-only mapping. An entry whose params name a signal or
+  hold an expression (``set``, ``ramp``, ``until``), or whose action has a dot (a
+  system's action), needs the whole document (``signals``, ``system``) and is checked
+  at the end, with the detailed checks' own code.
+* **At the end**: the rest of the document (everything but ``execute``) through the
+  same value walk and the schema (with ``execute``'s items left out: they were checked
+  one by one), then the system, signals, limits, criteria and the ids they share with
+  entries, ``after`` items naming entries further down the file, and acyclicity (one
+  pass when every ``after`` points up the file, as usual).
+
+``tests/test_onepass.py`` checks that this path builds the same case as the detailed
+checks for every example and for generated and mutated documents, and that it leaves
+every document the detailed checks reject to them.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import replace
+from functools import lru_cache
+from typing import Any, Callable, Mapping
+
+from .leaves import Registry
+from .leaves.registry import LeafType
+from .loader import (
+    _acyclic,
+    _case,
+    _Checker,
+    _frozen,
+    _no_duplicates,
+    _reject_constant,
+    _SURROGATE,
+    _suspicious,
+    _validator,
+    inline_refs,
+    schema,
+)
+from .model import EMPTY, Criterion, Entry, TestCase
+from .systems.base import SystemSpec
+from .systems.simulated import SIMULATED
+from .validation import SchemaValidator
+
+__all__ = ["from_text", "from_data"]
+
+_WHITESPACE = re.compile(r"[ \t\n\r]*")  # what json's scanner skips between tokens
+_SPACE = " \t\n\r"
+_SPACED_KEY = re.compile(r'"[ \t\n\r]+:')  # a string, white space, a colon: a key written "key" : value
+
+
+class _NotHere(Exception):
+    """Not decided by the one pass: run the detailed checks."""
+
+
+def from_text(raw: bytes | str, source: str, registry: Registry, system: SystemSpec | None = None) -> TestCase | None:
+    """The case in *raw* (a file's bytes) if it is valid and within this pass's reach, else ``None``."""
+    try:
+        text = raw.decode("utf-8-sig") if isinstance(raw, bytes) else raw
+        builder = _Builder(registry)
+        top = _read(text, builder)
+    except (_NotHere, ValueError, TypeError, RecursionError, StopIteration, IndexError):
+        # not JSON the detailed reader accepts (ValueError: invalid JSON, a duplicate key, NaN),
+        # or an entry this pass does not accept (TypeError: an unhashable item in 'after'): they say why
+        return None
+    return builder.finish(top, source, system)
+
+
+def from_data(data: Any, source: str, registry: Registry, system: SystemSpec | None = None) -> TestCase | None:
+    """The case of parsed JSON *data* if it is valid and within this pass's reach, else ``None``."""
+    if type(data) is not dict or type(data.get("execute")) is not list:
+        return None
+    builder = _Builder(registry)
+    builder.default_join = data.get("join", "any")
+    try:
+        for raw in data["execute"]:
+            builder.add(raw)
+    except (_NotHere, TypeError):  # TypeError: an unhashable item in 'after'
+        return None
+    return builder.finish(data, source, system)
+
+
+def _read(text: str, builder: "_Builder") -> dict[str, Any]:
+    """Parse the top-level object of *text*, feeding ``execute``'s items to *builder* one by one.
+
+    Returns the top-level dict with ``execute`` mapped to ``None`` (its entries are in the
+    builder). Raises what the scanner raises (``StopIteration``: no value where one must
+    be), or :class:`_NotHere` for anything else ``json.loads`` would reject.
+    """
+    scan = _scanner()
+    skip = _WHITESPACE.match
+    end = len(text)
+    i = skip(text, 0).end()
+    if text[i : i + 1] != "{":
+        raise _NotHere
+    top: dict[str, Any] = {}
+    i = skip(text, i + 1).end()
+    if text[i : i + 1] == "}":
+        raise _NotHere  # {} is not a test case
+    while True:
+        if text[i : i + 1] != '"':
+            raise _NotHere
+        key, i = scan(text, i)
+        i = skip(text, i).end()
+        if text[i : i + 1] != ":" or key in top:
+            raise _NotHere
+        i = skip(text, i + 1).end()
+        if key == "execute" and text[i : i + 1] == "[":
+            builder.default_join = top.get("join", "any")
+            builder.join_known = "join" in top
+            start = i
+            if _SPACED_KEY.search(text, i) is None:  # every key is written "key": - count them instead of hooking
+                builder.count_keys = True
+                i = _read_entries(text, skip(text, i + 1).end(), _scanner(hook=False), skip, builder)
+                if text.count('":', start, i) != builder.keys:
+                    raise _NotHere  # a key twice in one object (or '":' inside a string): the detailed reader decides
+            else:
+                i = _read_entries(text, skip(text, i + 1).end(), scan, skip, builder)
+            top[key] = None
+        else:
+            top[key], i = scan(text, i)
+        i = skip(text, i).end()
+        c = text[i : i + 1]
+        if c == "}":
+            break
+        if c != ",":
+            raise _NotHere
+        i = skip(text, i + 1).end()
+    if skip(text, i + 1).end() != end:
+        raise _NotHere  # extra data after the object
+    return top
+
+
+def _read_entries(text: str, i: int, scan: Callable[[str, int], Any], skip: Callable[..., Any], builder: "_Builder") -> int:
+    """Feed the items of the array whose first item starts at *i* to *builder*; the index after its ``]``."""
+    add = builder.add
+    if text[i] == "]":
+        return i + 1
+    while True:
+        raw, i = scan(text, i)
+        add(raw)
+        c = text[i]
+        if c in _SPACE:
+            i = skip(text, i).end()
+            c = text[i]
+        if c == ",":
+            i += 1
+            if text[i] in _SPACE:
+                i = skip(text, i).end()
+        elif c == "]":
+            return i + 1
+        else:
+            raise _NotHere
+
+
+def _scanner(hook: bool = True) -> Callable[[str, int], Any]:
+    """``json.loads``' scanner with the loader's hooks: ``scan(text, index) -> (value, end)``.
+
+    A new one per document: the scanner keeps a memo of keys between the hook's calls.
+    Without *hook*, objects are built in C and a key written twice is not detected:
+    the entries are read so (the duplicate-key hook was a third of reading them) and
+    their keys counted instead. Where no key is followed by white space before its
+    colon, every key written ends in ``":``, so the execute array holds at least as
+    many ``":`` as keys written; when that count equals the number of keys of the
+    dicts read (:attr:`_Builder.keys`), no object had a key twice.
+    """
+    if not hook:
+        return json.JSONDecoder(parse_constant=_reject_constant).scan_once
+    return json.JSONDecoder(object_pairs_hook=_no_duplicates, parse_constant=_reject_constant).scan_once
+
+
+class _Rules:
+    """What the schema says about one execute entry, read from the schema file itself."""
+
+    def __init__(self, entry: Mapping[str, Any]):
+        props = entry["properties"]
+        self.keys = frozenset(props)
+        self.required = tuple(entry["required"])
+        self.id = re.compile(props["id"]["pattern"]).search
+        self.id_max = props["id"]["maxLength"]
+        self.kinds = tuple(props["kind"]["enum"])
+        self.action_min, self.action_max = props["action"]["minLength"], props["action"]["maxLength"]
+        self.joins = tuple(props["join"]["enum"])
+        self.name_min, self.name_max = props["name"]["minLength"], props["name"]["maxLength"]
+
+
+_ID = {"type": "string", "pattern": "^[A-Za-z_][A-Za-z0-9_-]*(?![\\s\\S])", "maxLength": 64}
+_ENTRY = {
+    "type": "object",
+    "required": ["id", "kind", "action"],
+    "additionalProperties": False,
+    "properties": {
+        "id": _ID,
+        "kind": {"enum": ["behavior", "constraint"]},
+        "action": {"type": "string", "minLength": 1, "maxLength": 200},
+        "params": {"type": "object"},
+        "after": {"type": "array", "items": _ID},
+        "join": {"enum": ["any", "all"]},
+        "name": {"type": "string", "minLength": 1, "maxLength": 200},
+    },
+}
+"""The execute entry's schema (descriptions aside) as this pass implements it."""
+
+_IDS = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}(?:\n[A-Za-z_][A-Za-z0-9_-]{0,63})*").fullmatch
+"""Ids joined by newlines, each matching ``_ID`` (its pattern, at most its maxLength characters)."""
+
+
+def _plain_schema(node: Any) -> Any:
+    if isinstance(node, dict):
+        return {k: _plain_schema(v) for k, v in node.items() if k != "description"}
+    if isinstance(node, list):
+        return [_plain_schema(v) for v in node]
+    return node
+
+
+@lru_cache(maxsize=1)
+def _entry_rules() -> _Rules | None:
+    """The entry rules, or ``None`` when the schema's entry is not the one this pass implements.
+
+    Then every document goes through the detailed checks, and ``tests/test_onepass.py``
+    fails, saying this pass needs updating.
+    """
+    full = inline_refs(schema(), schema())
+    entry = _plain_schema(full["properties"]["execute"]["items"])
+    return _Rules(entry) if entry == _ENTRY else None
+
+
+class _Leaf:
+    """What the pass knows about one registered (kind, action): the leaf, and params already checked."""
+
+    __slots__ = ("leaf", "validator", "special", "later", "checked")
+
+    def __init__(self, leaf: LeafType, action: str):
+        self.leaf = leaf
+        self.validator = leaf.params_validator
+        self.special = (*leaf.signals, *leaf.expressions)  # params that need the whole document
+        self.later = "." in action  # a system's action: whose system is decided by the whole document
+        self.checked: dict[Any, Mapping[str, Any]] = {}  # params key -> the shared read-only params
+
+
+class _Builder:
+    """Checks entries as they are read and builds them; :meth:`finish` checks the rest."""
+
+    def __init__(self, registry: Registry):
+        rules = _entry_rules()
+        if rules is None:
+            raise _NotHere
+        self.rules = rules
+        self.registry = registry
+        self.entries: list[Entry | None] = []
+        self.ids: set[str] = set()
+        self.leaves: dict[tuple[str, str], _Leaf] = {}
+        self.default_join: Any = "any"
+        self.join_known = True  # whether default_join is the document's (a 'join' after 'execute': not yet)
+        self.defaulted: list[int] = []  # entries given default_join while it was not known
+        self.forward: list[tuple[str, ...]] = []  # 'after' lists naming entries not read yet
+        self.later: list[tuple[int, dict[str, Any]]] = []  # entries checked by finish()
+        self.first: Any = None  # the first entry as read
+        self.count_keys = False  # count the keys of the dicts read (entries read without the duplicate-key hook)
+        self.keys = 0
+
+    def add(self, raw: Any) -> None:
+        """Check one execute entry (raise :class:`_NotHere` on anything unusual) and build it."""
+        rules = self.rules
+        if type(raw) is not dict or not raw.keys() <= rules.keys:
+            raise _NotHere
+        get = raw.get
+        id_, kind, action = get("id"), get("kind"), get("action")
+        if type(id_) is not str or type(action) is not str or id_ in self.ids:
+            raise _NotHere  # (the ids' pattern and length: all at once, in finish())
+        leaf = self.leaves.get((kind, action)) if type(kind) is str else None
+        if leaf is None:
+            leaf = self._leaf(kind, action)
+        entries = self.entries
+        i = len(entries)
+        if not i:
+            self.first = raw
+        ids = self.ids
+        ids.add(id_)
+        listed = get("after")
+        if listed:
+            if type(listed) is not list:
+                raise _NotHere
+            after = tuple(listed)
+            if not ids.issuperset(after):
+                self._forward(after)
+            if id_ in after or len(after) > 1 and len(set(after)) != len(after):
+                raise _NotHere
+        elif listed is None and "after" in raw or listed is not None and type(listed) is not list:
+            raise _NotHere
+        else:
+            after = ()
+        join = get("join")
+        if join is None:
+            if "join" in raw:
+                raise _NotHere
+            join = self.default_join
+            if not self.join_known:
+                self.defaulted.append(i)
+        elif type(join) is not str or join not in rules.joins:
+            raise _NotHere
+        name = get("name")
+        if name is None:
+            if "name" in raw:
+                raise _NotHere
+            name = id_
+        elif type(name) is not str or not rules.name_min <= len(name) <= rules.name_max or _SURROGATE.search(name):
+            raise _NotHere
+        params = get("params")
+        if params is None:
+            if "params" in raw:
+                raise _NotHere
+        elif type(params) is not dict:
+            raise _NotHere
+        if self.count_keys:
+            self.keys += len(raw) + (len(params) if params else 0)
+        if leaf.later:
+            self._later(i, raw, params)
+            return
+        if not params:
+            key: Any = ()
+        else:  # 1, 1.0 and True are equal in Python but not to a schema: the types are part of the key
+            if len(params) == 1:
+                ((k, v),) = params.items()
+                key = (k, type(v), v)
+            else:
+                key = (tuple(params.items()), tuple(map(type, params.values())))
+            try:
+                hash(key)
+            except TypeError:  # a list or object value: checked every time, as the detailed checks do
+                key = None
+        frozen = leaf.checked.get(key) if key is not None else None
+        if frozen is None:
+            if params:
+                if key is None and self.count_keys:
+                    self.keys += _nested_keys(params)
+                if _suspicious(params, 3) or leaf.validator is not None and not _fits(leaf.validator, params):
+                    raise _NotHere
+                if leaf.special and any(k in params for k in leaf.special):
+                    self._later(i, raw, None)  # a signal name or an expression: needs the whole document (keys counted)
+                    return
+            elif leaf.validator is not None and not _fits(leaf.validator, {}):
+                raise _NotHere
+            frozen = _frozen(params)
+            if key is not None:
+                leaf.checked[key] = frozen
+        entries.append(Entry(id_, kind, action, frozen, after, join, name, i, EMPTY))
+
+    def _later(self, i: int, raw: dict[str, Any], params: Any) -> None:
+        """Leave entry *i* to :meth:`finish` (its place is kept)."""
+        if params and self.count_keys:
+            self.keys += _nested_keys(params)
+        self.later.append((i, raw))
+        self.entries.append(None)
+
+    def _leaf(self, kind: str, action: str) -> _Leaf:
+        """The registered leaf of a (kind, action) seen for the first time (checked as a schema would)."""
+        rules = self.rules
+        if kind not in rules.kinds or not rules.action_min <= len(action) <= rules.action_max or _SURROGATE.search(action):
+            raise _NotHere
+        leaf_type = self.registry.get(kind, action)
+        if leaf_type is None:
+            raise _NotHere
+        leaf = self.leaves[(kind, action)] = _Leaf(leaf_type, action)
+        return leaf
+
+    def _forward(self, after: tuple[str, ...]) -> None:
+        """*after* names entries not read yet: check that they are ids; finish() checks they exist."""
+        rules = self.rules
+        for p in after:
+            if type(p) is not str or len(p) > rules.id_max or not rules.id(p):
+                raise _NotHere
+        self.forward.append(after)
+
+    def finish(self, data: Mapping[str, Any], source: str, system: SystemSpec | None) -> TestCase | None:
+        """Check everything but the entries read; the case, or ``None`` for the detailed checks."""
+        if not self.entries or "parameters" in data or "variations" in data:
+            return None  # none: the schema's error; parameters: substituted by btgen_pytrees.sweep first
+        try:
+            joined = "\n".join(self.ids)  # the ids' pattern and length, in one regex call
+            if joined.count("\n") != len(self.ids) - 1 or not _IDS(joined):  # (an id with a newline would pass as two)
+                return None
+        except TypeError:  # a str subclass with an odd join (from Python): the detailed checks decide
+            return None
+        rest = {k: v for k, v in data.items() if k != "execute"}
+        # the schema over the rest, with the first entry standing for all of them (each was checked as it came)
+        if _suspicious(rest) or not _fits(_validator(), {**rest, "execute": [self.first]}):
+            return None
+        checker = _Checker(rest, self.registry, source, system)
+        if self.registry.system(checker.spec.type) is not SIMULATED:
+            return None  # another system's describe() may read the whole document, entries included
+        checker.check_system()
+        checker.check_signals()
+        checker.check_limits()
+        criteria_ids = [c["id"] for c in rest.get("oracle", {}).get("criteria", [])]
+        if len(set(criteria_ids)) != len(criteria_ids) or not self.ids.isdisjoint(criteria_ids):
+            return None
+        if any(not self.ids.issuperset(after) for after in self.forward):
+            return None
+        entries = self.entries
+        join = data.get("join", "any")
+        if self.defaulted and join != self.default_join:  # 'join' came after 'execute'
+            for i in self.defaulted:
+                if entries[i] is not None:  # (the entries checked below take the document's join themselves)
+                    entries[i] = replace(entries[i], join=join)  # type: ignore[arg-type]
+        checked: dict[Any, Mapping[str, Any]] = {}
+        for i, raw in self.later:
+            entries[i] = self._entry(checker, i, raw, join, checked)
+        criteria: list[Criterion] = checker.criteria()
+        if checker.problems:
+            return None
+        done: list[Entry] = entries  # type: ignore[assignment]
+        if self.forward and not _acyclic(done):
+            return None
+        return _case(data, done, criteria, checker.spec, self.registry, source)
+
+    @staticmethod
+    def _entry(checker: _Checker, i: int, raw: Mapping[str, Any], join: str, checked: dict[Any, Mapping[str, Any]]) -> Entry:
+        """An entry that needed the whole document, checked and built as the detailed checks do."""
+        from .loader import _params_key
+
+        kind, action, params = raw["kind"], raw["action"], raw.get("params")
+        key = _params_key(kind, action, params)
+        frozen = checked.get(key) if key is not None else None
+        expressions: Mapping[str, Any] = EMPTY
+        if frozen is None:
+            before = len(checker.problems)
+            compiled = checker._leaf(("execute", i), kind, action, params if params is not None else {})
+            frozen = _frozen(params)
+            expressions = _frozen(compiled)
+            if key is not None and not compiled and len(checker.problems) == before and checker._plain(kind, action, params):
+                checked[key] = frozen
+        after = tuple(raw["after"]) if raw.get("after") else ()
+        return Entry(raw["id"], kind, action, frozen, after, raw.get("join", join), raw.get("name", raw["id"]), i, expressions)
+
+
+def _nested_keys(value: Any) -> int:
+    """Keys of the dicts nested in *value*'s values (its own keys not counted)."""
+    count, stack = 0, list(value.values()) if type(value) is dict else list(value)
+    while stack:
+        item = stack.pop()
+        if type(item) is dict:
+            count += len(item)
+            stack.extend(item.values())
+        elif type(item) is list:
+            stack.extend(item)
+    return count
+
+
+def _fits(validator: SchemaValidator, value: Any) -> bool:
+    return next(iter(validator.iter_errors(value)), None) is None

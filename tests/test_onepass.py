@@ -1,0 +1,191 @@
+"""The loader's one pass (btgen_pytrees.onepass) builds exactly the case the detailed checks build.
+
+For every document it either answers ``None`` (the detailed checks then run and say
+what is wrong, or accept it) or returns a case equal, field by field, to the one the
+detailed checks return - params shared between the same entries, the same expressions,
+the same warnings. It must never accept a document the detailed checks reject.
+
+A longer, random run (after touching the loader or onepass.py)::
+
+    BTGEN_ONEPASS_EXAMPLES=5000 python -m pytest tests/test_onepass.py -q
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import random
+from typing import Any
+
+import pytest
+from helpers import case, crit, entry
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_fuzz import mutants
+
+import btgen_pytrees
+from btgen_pytrees import onepass
+from btgen_pytrees.errors import InvalidTestCase
+from btgen_pytrees.leaves import default_registry
+from btgen_pytrees.loader import _validate, parse_json
+from btgen_pytrees.model import TestCase
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+REGISTRY = default_registry()
+_LONG = int(os.environ.get("BTGEN_ONEPASS_EXAMPLES", "0"))  # a longer, random run: after touching the loader
+SETTINGS = settings(max_examples=_LONG or 200, deadline=None, derandomize=not _LONG, database=None,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])  # fmt: skip
+
+
+def detailed(raw: bytes | str, source: str = "case.json") -> TestCase | None:
+    try:
+        return _validate(parse_json(raw, source), source, REGISTRY, None)
+    except InvalidTestCase:
+        return None
+
+
+def fields(c: TestCase) -> Any:
+    """Everything a case holds, comparable with ==; which entries share one params mapping."""
+    first: dict[int, int] = {}
+    entries = [(e.id, e.kind, e.action, _typed(e.params), e.after, e.join, e.name, e.index,
+                {k: x.source for k, x in e.expressions.items()}, first.setdefault(id(e.params), e.index))
+               for e in c.entries]  # fmt: skip
+    criteria = [(x.id, x.type, x.expect.source, x.name, x.index, x.start, x.end, x.at, x.action, _typed(x.params),
+                 {k: v.source for k, v in x.expressions.items()}) for x in c.criteria]  # fmt: skip
+    return (c.name, c.description, _typed(c.signals), c.declares_signals, c.tick, c.timeout, c.join, entries, criteria,
+            dict(c.relation), c.source, c.system, c.require_complete, [(w.path, w.message, w.cause) for w in c.warnings])  # fmt: skip
+
+
+def _typed(mapping: Any) -> Any:
+    return json.dumps(dict(mapping), sort_keys=True), sorted((k, type(v).__name__) for k, v in mapping.items())
+
+
+def check(raw: bytes | str, source: str = "case.json") -> TestCase | None:
+    """The one pass's answer for *raw*, after checking it against the detailed checks'."""
+    fast = onepass.from_text(raw, source, REGISTRY)
+    slow = detailed(raw, source)
+    if fast is not None:
+        assert slow is not None, "the one pass accepted a document the detailed checks reject"
+        assert fields(fast) == fields(slow)
+    try:
+        data = parse_json(raw, source)
+    except InvalidTestCase:
+        return fast
+    from_data = onepass.from_data(data, source, REGISTRY)
+    if from_data is not None:
+        assert slow is not None, "the one pass accepted a document the detailed checks reject"
+        assert fields(from_data) == fields(slow)
+    return fast
+
+
+def test_the_schema_entry_is_the_one_this_pass_implements() -> None:
+    # If this fails, testcase.schema.json's entry changed: update onepass._ENTRY and _Builder.add with it.
+    assert onepass._entry_rules() is not None
+
+
+@pytest.mark.parametrize("path", sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "examples").rglob("*.json")))
+def test_examples(path: str) -> None:
+    raw = (ROOT / path).read_bytes()
+    fast = check(raw, str(ROOT / path))
+    if path.startswith("examples/fig1") and "sweep" not in path:
+        assert fast is not None  # within reach: the one pass answers
+
+
+def _dump(data: Any, style: int) -> str:
+    if style == 0:
+        return json.dumps(data, separators=(",", ":"))
+    if style == 1:
+        return json.dumps(data)
+    if style == 2:
+        return json.dumps(data, indent=2)
+    return json.dumps(data, indent="\t", separators=(" ,", " : "))  # white space before colons: the hooked reader
+
+
+@st.composite
+def documents(draw: Any) -> tuple[dict[str, Any], int]:
+    """Valid-looking documents of every kind the one pass handles, in every key order and layout."""
+    n = draw(st.integers(1, 12))
+    ids = [f"E{i}" for i in range(n)]
+    entries = []
+    for i, id_ in enumerate(ids):
+        kind = draw(st.sampled_from(["hold", "wait", "set", "ramp", "until", "hold"]))
+        params: dict[str, Any] = {
+            "hold": {"duration": draw(st.sampled_from([0, 1, 1.0, 0.5, -0.0]))},
+            "wait": {"duration": draw(st.sampled_from([1, 1.0, True, 2]))},
+            "set": {"signal": draw(st.sampled_from(["x", "y", "z"])), "value": draw(st.sampled_from([1, True, 2.5]))},
+            "ramp": {"signal": "x", "to": 3, "duration": 1},
+            "until": {"expect": draw(st.sampled_from(["x > 1", "y == 0", "q", "x >"]))},
+        }[kind]
+        e = entry(id_, draw(st.lists(st.sampled_from(ids), max_size=3, unique=True)), action=kind, **params)
+        if draw(st.booleans()) and i % 3 == 0:
+            e["join"] = draw(st.sampled_from(["any", "all"]))
+        if draw(st.integers(0, 5)) == 0:
+            e["name"] = draw(st.sampled_from(["step", 'a ":" b', "é", ""]))
+        if draw(st.integers(0, 9)) == 0:
+            e[draw(st.sampled_from(["params", "after", "join", "name"]))] = draw(st.sampled_from([None, 1, [], {}]))
+        entries.append(e)
+    criteria = [crit("C", "record", draw(st.sampled_from(["x >= 0", "z < 1"])))] if draw(st.booleans()) else None
+    if criteria and draw(st.integers(0, 4)) == 0:
+        criteria[0]["id"] = draw(st.sampled_from(ids))  # an id shared with an entry
+    top: dict[str, Any] = {}
+    if draw(st.booleans()):
+        top["signals"] = {"x": 0, "y": 1}
+    if draw(st.booleans()):
+        top["join"] = draw(st.sampled_from(["any", "all"]))
+    data = case(*entries, criteria=criteria, **top)
+    keys = list(data)
+    random.Random(draw(st.integers(0, 1000))).shuffle(keys)  # 'execute' first, last, between
+    return {k: data[k] for k in keys}, draw(st.integers(0, 3))
+
+
+@SETTINGS
+@given(documents())
+def test_generated_documents(doc: tuple[dict[str, Any], int]) -> None:
+    data, style = doc
+    fast = check(_dump(data, style))
+    if detailed(_dump(data, style)) is not None and '":' not in json.dumps([e.get("name") for e in data["execute"]]):
+        assert fast is not None  # a valid document within reach is answered by the one pass
+
+
+@SETTINGS
+@given(mutants())
+def test_mutated_documents(mutant: tuple[bytes, list[str]]) -> None:
+    check(mutant[0])
+
+
+@pytest.mark.parametrize("text", [
+    '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","id":"B","params":{"duration":1}}]}',
+    '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","params":{"duration":1,"duration":2}}]}',
+    '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","params":{"duration":1}}],"name":"u"}',
+    '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold" ,"action" : "hold","params":{"duration":1}}]}',
+    '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","params":{"duration":1}},]}',
+    '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","params":{"duration":1}}]} x',
+    '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","params":{"duration":NaN}}]}',
+])  # fmt: skip
+def test_what_json_loads_rejects_is_left_to_the_detailed_reader(text: str, tmp_path: pathlib.Path) -> None:
+    assert onepass.from_text(text, "case.json", REGISTRY) is None
+    (tmp_path / "case.json").write_text(text, encoding="utf-8")
+    with pytest.raises(InvalidTestCase):
+        btgen_pytrees.load(tmp_path / "case.json")
+
+
+def test_a_colon_inside_a_string_is_not_taken_for_a_key(tmp_path: pathlib.Path) -> None:
+    text = '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","name":"a\\":b","params":{"duration":1}}]}'
+    assert onepass.from_text(text, "case.json", REGISTRY) is None  # more '":' than keys: not decided here
+    (tmp_path / "case.json").write_text(text, encoding="utf-8")
+    assert btgen_pytrees.load(tmp_path / "case.json").entries[0].name == 'a":b'
+
+
+def test_a_join_written_after_execute_is_every_entry_default() -> None:
+    text = json.dumps({"name": "t", "execute": [entry("A"), entry("B"), entry("C", ["A", "B"]),
+                                                 entry("D", ["A", "B"], join="any")], "join": "all"})  # fmt: skip
+    fast = check(text)
+    assert fast is not None and [e.join for e in fast.entries] == ["all", "all", "all", "any"]
+
+
+def test_a_long_chain_is_read_in_one_pass() -> None:
+    text = json.dumps(case(*[entry(f"E{i}", [f"E{i - 1}"] if i else [], duration=0.1) for i in range(3000)]))
+    fast = check(text)
+    assert fast is not None and len({id(e.params) for e in fast.entries}) == 1
+

@@ -152,7 +152,7 @@ def inline_refs(node: Any, root: Mapping[str, Any], depth: int = 0) -> Any:
 
 @lru_cache(maxsize=1)
 def _validator() -> SchemaValidator:
-    return SchemaValidator(inline_refs(schema(), schema()))
+    return SchemaValidator(inline_refs(schema(), schema()), checked=True)  # tests/test_validation_fastpath.py checks it
 
 
 # ---------------------------------------------------------------------------

@@ -67,11 +67,14 @@ def warning_lines(case: TestCase) -> list[str]:
 def overlapping_writes(entries: Sequence[Entry], registry: Registry) -> list[Problem]:
     """One warning (a :class:`Problem` with cause ``overlap``) per pair of unordered writers of a signal."""
     writers: dict[str, list[tuple[Entry, str]]] = {}
+    written: dict[tuple[str, str], tuple[str, ...]] = {}  # (kind, action) -> the params naming a written signal
     for entry in entries:
-        leaf = registry.get(entry.kind, entry.action)
-        if leaf is None:
-            continue
-        for param in leaf.signals:
+        key = (entry.kind, entry.action)
+        params = written.get(key)
+        if params is None:
+            leaf = registry.get(*key)
+            params = written[key] = leaf.signals if leaf is not None else ()
+        for param in params:
             signal = entry.params.get(param)
             if isinstance(signal, str):
                 writers.setdefault(signal, []).append((entry, param))

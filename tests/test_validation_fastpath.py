@@ -64,3 +64,13 @@ def test_schemas_beyond_draft7_skip_the_fast_path() -> None:
     assert SchemaValidator({"type": "object", "unevaluatedProperties": False}).fast is None
     assert SchemaValidator({"$defs": {"n": {"type": "number"}}, "$ref": "#/$defs/n"}).fast is None
     assert SchemaValidator({"type": "object"}).fast is not None
+
+
+def test_the_test_case_schema_is_valid() -> None:
+    # the loader builds its validator with checked=True (no metaschema check at run time): it is checked here
+    import jsonschema
+
+    from btgen_pytrees.loader import inline_refs, schema
+
+    jsonschema.Draft202012Validator.check_schema(schema())
+    jsonschema.Draft202012Validator.check_schema(inline_refs(schema(), schema()))

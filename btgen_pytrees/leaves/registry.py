@@ -152,7 +152,7 @@ class Registry:
         """
         is_entry = isinstance(item, Entry)
         kind = item.kind if is_entry else item.type  # type: ignore[union-attr]
-        leaf_type = self.get(kind, item.action)
+        leaf_type = self._types.get((kind, item.action))
         if leaf_type is None:
             raise LookupError(f"no leaf registered for {kind} action {item.action!r}")
         try:
@@ -168,7 +168,10 @@ class Registry:
             if not isinstance(node, py_trees.behaviour.Behaviour):
                 raise FactoryError(f"{item.id}: the factory for {kind} {item.action!r} returned {cls.__name__}, not a py_trees Behaviour")
             own = self._classes[cls] = cls.__module__.startswith("btgen_pytrees.")
-        setattr(node, "btgen_entry" if is_entry else "btgen_criterion", item)
+        if is_entry:
+            node.btgen_entry = item  # type: ignore[attr-defined]
+        else:
+            node.btgen_criterion = item  # type: ignore[attr-defined]
         if not own:
             node.update = _checked_update(node)  # type: ignore[method-assign]
         return node

@@ -428,7 +428,7 @@ class _Builder:
             return None
         rest = {k: v for k, v in data.items() if k != "execute"}
         # the schema over the rest, with the first entry standing for all of them (each was checked as it came)
-        if _suspicious(rest) or not _fits(_validator(), {**rest, "execute": [self.first]}):
+        if _suspicious(rest) or not _small_fits({**rest, "execute": [self.first]}):
             return None
         checker = _Checker(rest, self.registry, source, system)
         if self.registry.system(checker.spec.type) is not SIMULATED:
@@ -489,6 +489,22 @@ def _nested_keys(value: Any) -> int:
         elif type(item) is list:
             stack.extend(item)
     return count
+
+
+SMALL = 100
+"""Criteria and signals up to which the rest of a document is checked by jsonschema itself (about a
+millisecond) rather than by the compiled check, whose compilation (40 ms, once per process) would
+cost more than it saves."""
+
+
+def _small_fits(doc: dict[str, Any]) -> bool:
+    validator = _validator()
+    oracle, signals = doc.get("oracle"), doc.get("signals")
+    criteria = oracle.get("criteria") if type(oracle) is dict else None
+    size = (len(criteria) if type(criteria) is list else 0) + (len(signals) if type(signals) is dict else 0)
+    if size <= SMALL and "fast" not in validator.__dict__:  # not compiled yet: jsonschema's own walk is cheaper
+        return bool(validator.full.is_valid(doc))
+    return _fits(validator, doc)
 
 
 def _fits(validator: SchemaValidator, value: Any) -> bool:

@@ -35,6 +35,17 @@ __all__ = ["timeline", "adjacency_matrix", "topological_order", "topological_pos
 
 def timeline(case: TestCase) -> nx.DiGraph:
     """The DiGraph of *case*'s execute entries (edges pred → succ, in file order)."""
+    return _graph(case, attributes=True)
+
+
+def _graph(case: TestCase, attributes: bool) -> nx.DiGraph:
+    """:func:`timeline`; without *attributes*, each node's attribute dict is empty.
+
+    :func:`~btgen_pytrees.construct.generate` walks a graph of its own and takes the
+    entries from the case: an empty dict is one object the garbage collector does not
+    track, ``{"entry": e}`` one it tracks - on a 100,000-entry timeline, 100,000 fewer
+    objects for each of its full collections to walk while the tree is built.
+    """
     graph = nx.DiGraph(name=case.name)
     # What add_nodes_from/add_edges_from build (the same dicts, in the same order), written straight
     # into the graph's adjacency dicts: per node, networkx's generic path raises and catches a
@@ -42,7 +53,7 @@ def timeline(case: TestCase) -> nx.DiGraph:
     # looks the edge up and updates two dicts. On a 100,000-entry chain that was most of this function.
     entries = case.entries
     nodes, succ, pred = graph._node, graph._succ, graph._pred
-    nodes.update({e.id: {"entry": e} for e in entries})
+    nodes.update({e.id: {"entry": e} for e in entries} if attributes else {e.id: {} for e in entries})
     succ.update({e.id: {} for e in entries})
     pred.update({e.id: {} for e in entries})
     for e in entries:

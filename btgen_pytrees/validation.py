@@ -19,11 +19,13 @@ checks the two agree on fuzzed documents.
 
 from __future__ import annotations
 
+import json
+from functools import cached_property, lru_cache
 from typing import Any, Callable, Iterator, Mapping
 
 import jsonschema
 
-__all__ = ["SchemaValidator"]
+__all__ = ["SchemaValidator", "shared_validator"]
 
 _NEWER_KEYWORDS = frozenset({
     "$ref", "$dynamicRef", "$dynamicAnchor", "$recursiveRef", "$recursiveAnchor", "$anchor",
@@ -69,7 +71,13 @@ class SchemaValidator:
         if not checked:
             cls.check_schema(schema)
         self.full = cls(schema)
-        self.fast = _compile_fast(schema)
+        self._schema = schema
+
+    @cached_property
+    def fast(self) -> Callable[[Any], Any] | None:
+        """The compiled yes/no check (``None`` if the schema is beyond it), compiled on first use:
+        40 ms for the test-case schema, which a small document checked by ``full`` never needs."""
+        return _compile_fast(self._schema)
 
     def is_valid(self, data: Any) -> bool:
         return next(iter(self.iter_errors(data)), None) is None
@@ -82,3 +90,24 @@ class SchemaValidator:
             except Exception:  # noqa: BLE001 - rejected (or confused): let jsonschema say why
                 pass
         return self.full.iter_errors(data)
+
+
+def shared_validator(schema: Mapping[str, Any]) -> SchemaValidator:
+    """One :class:`SchemaValidator` per distinct schema in this process.
+
+    Every registry (``default_registry()`` makes a new one per load) registers the
+    same built-in params schemas; checking each against the metaschema and compiling
+    it again cost 15-20 ms per load of a small case. Schemas are keyed by their
+    canonical JSON text; one that is not plain JSON gets a validator of its own.
+    """
+    try:
+        text = json.dumps(schema, sort_keys=True, allow_nan=False)
+        same = json.loads(text) == schema  # plain JSON (a tuple would come back a list: not the same schema)
+    except (TypeError, ValueError):
+        same = False
+    return _shared(text) if same else SchemaValidator(schema)
+
+
+@lru_cache(maxsize=256)
+def _shared(text: str) -> SchemaValidator:
+    return SchemaValidator(json.loads(text))

@@ -35,7 +35,7 @@ costs what is active, not what waits.
 from __future__ import annotations
 
 import heapq
-from typing import Any
+from typing import Any, Mapping
 
 import networkx as nx
 import py_trees
@@ -43,6 +43,7 @@ from py_trees.composites import Parallel, Sequence
 
 from ..leaves import Environment, Registry
 from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
+from ..model import Entry
 from ..timeline import topological_positions
 
 __all__ = ["execute_subtree", "MAX_DEPTH", "EXECUTE_DEPTH"]
@@ -117,11 +118,13 @@ class _Walk:
     """
 
     def __init__(self, graph: nx.DiGraph, env: Environment, registry: Registry, depth: int, max_depth: int,
-                 consume: bool = False):  # fmt: skip
+                 consume: bool = False, entries: Mapping[str, Entry] | None = None):  # fmt: skip
         self.consume = consume
         self.succ: dict[str, dict[str, Any]] = graph._succ
         self.pred: dict[str, dict[str, Any]] = graph._pred
-        self.entry_of: dict[str, dict[str, Any]] = graph._node
+        self.nodes: dict[str, dict[str, Any]] = graph._node
+        # each node's Entry: from its 'entry' attribute, or given (generate's own graph carries no attributes)
+        self.entry_of: Mapping[str, Entry] = entries if entries is not None else {v: a["entry"] for v, a in graph._node.items()}
         self.env = env
         self.registry = registry
         self.depth = depth
@@ -130,12 +133,12 @@ class _Walk:
         # column walk: (topological position, first entry, predecessors, join, hoisted fork's entry or "")
         position, entry_of = self.position, self.entry_of
         self.heads: list[tuple[int, str, tuple[str, ...], str, str]] = [
-            (position[v], v, tuple(p), entry_of[v]["entry"].join, "") for v, p in self.pred.items() if len(p) > 1
+            (position[v], v, tuple(p), entry_of[v].join, "") for v, p in self.pred.items() if len(p) > 1
         ]
         heapq.heapify(self.heads)
 
     def leaf(self, v: str, wrap: bool) -> py_trees.behaviour.Behaviour:
-        node = self.registry.build(self.entry_of[v]["entry"], self.env)
+        node = self.registry.build(self.entry_of[v], self.env)
         return Completion(node, self.env, marks=v) if wrap else node
 
     def chain(self, seq: Sequence, first: str, level: int, *, fork_of: str | None = None) -> None:
@@ -151,7 +154,7 @@ class _Walk:
                 del self.succ[fork_of]
         else:
             stack.append((seq, first, level))
-        succ, pred, entry_of, consume = self.succ, self.pred, self.entry_of, self.consume
+        succ, pred, nodes, entry_of, consume = self.succ, self.pred, self.nodes, self.entry_of, self.consume
         build, env = self.registry.build, self.env
         while stack:
             seq, v, level = stack.pop()
@@ -161,9 +164,9 @@ class _Walk:
                 if len(successors) == 1:  # the usual step, without the lists singles() builds
                     (s,) = successors
                     if len(pred[s]) == 1:  # s continues v's Sequence: no fork, no hoist, no Completion
-                        out.add(build(entry_of[v]["entry"], env))
+                        out.add(build(entry_of[v], env))
                         if consume:  # what drop() does, inline
-                            del entry_of[v], succ[v]
+                            del nodes[v], succ[v]
                             if len(pred[v]) < 2:
                                 del pred[v]
                         v = s
@@ -196,7 +199,7 @@ class _Walk:
         Only the predecessors' row walks read a column (``singles``), and they all ran before *v*
         was reached - unless *v* is a join, whose predecessors may be walked later.
         """
-        del self.entry_of[v]
+        del self.nodes[v]
         if len(self.pred[v]) < 2:
             del self.pred[v]
 
@@ -258,3 +261,12 @@ def execute_subtree(
     if max_depth < depth + 8:
         raise ValueError(f"max_depth must be at least {depth + 8}")
     return _Walk(graph, env, registry, depth, max_depth, consume).build()
+
+
+def _walk_consuming(graph: nx.DiGraph, entries: Mapping[str, Entry], env: Environment, registry: Registry, *,
+                    depth: int, max_depth: int) -> Parallel:  # fmt: skip
+    """:func:`execute_subtree` with ``consume=True`` over a graph built without node attributes
+    (:func:`~.tree.generate`'s own), the entries given by id instead."""
+    if max_depth < depth + 8:
+        raise ValueError(f"max_depth must be at least {depth + 8}")
+    return _Walk(graph, env, registry, depth, max_depth, True, entries).build()

@@ -26,7 +26,7 @@ import py_trees
 
 from ..errors import is_interrupt
 from ..model import Criterion, Entry
-from ..validation import SchemaValidator
+from ..validation import SchemaValidator, shared_validator
 from .environment import Environment
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -96,7 +96,7 @@ class LeafType:
     def params_validator(self) -> SchemaValidator | None:
         if self.params_schema is None:
             return None
-        return SchemaValidator(self.params_schema)
+        return shared_validator(self.params_schema)
 
 
 class Registry:

@@ -237,6 +237,8 @@ _ENTRY = {
 }
 """The execute entry's schema (descriptions aside) as this pass implements it."""
 
+_FIELDS = ("id", "kind", "action", "params", "after", "join", "name")
+
 _IDS = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}(?:\n[A-Za-z_][A-Za-z0-9_-]{0,63})*").fullmatch
 """Ids joined by newlines, each matching ``_ID`` (its pattern, at most its maxLength characters)."""
 
@@ -258,7 +260,7 @@ def _entry_rules() -> _Rules | None:
     """
     full = inline_refs(schema(), schema())
     entry = _plain_schema(full["properties"]["execute"]["items"])
-    return _Rules(entry) if entry == _ENTRY else None
+    return _Rules(entry) if entry == _ENTRY and frozenset(_FIELDS) == frozenset(entry["properties"]) else None
 
 
 class _Leaf:
@@ -302,15 +304,17 @@ class _Builder:
         lookup or call saved per entry is a few milliseconds.
         """
         rules, ids, entries, leaves = self.rules, self.ids, self.entries, self.leaves
-        entry_keys, joins, name_min, name_max = rules.keys, rules.joins, rules.name_min, rules.name_max
+        joins, name_min, name_max = rules.joins, rules.name_min, rules.name_max
         default_join, join_known, count_keys = self.default_join, self.join_known, self.count_keys
         surrogate, new_id, new_entry = _SURROGATE.search, ids.add, entries.append
         keys = self.keys
         for raw in items:
-            if type(raw) is not dict or not raw.keys() <= entry_keys:
+            if type(raw) is not dict:
                 raise _NotHere
-            get = raw.get
-            id_, kind, action = get("id"), get("kind"), get("action")
+            id_, kind, action, params, listed, join, name = map(raw.get, _FIELDS)
+            # null is no valid value of any field, so this says: no other key, none null
+            if len(raw) != 3 + (params is not None) + (listed is not None) + (join is not None) + (name is not None):
+                raise _NotHere
             if type(id_) is not str or type(action) is not str or id_ in ids:
                 raise _NotHere  # (the ids' pattern and length: all at once, in finish())
             leaf = leaves.get((kind, action)) if type(kind) is str else None
@@ -320,7 +324,6 @@ class _Builder:
             if not i:
                 self.first = raw
             new_id(id_)
-            listed = get("after")
             if listed:
                 if type(listed) is not list:
                     raise _NotHere
@@ -329,31 +332,21 @@ class _Builder:
                     self._forward(after)
                 if id_ in after or len(after) > 1 and len(set(after)) != len(after):
                     raise _NotHere
-            elif listed is None and "after" in raw or listed is not None and type(listed) is not list:
+            elif listed is not None and type(listed) is not list:
                 raise _NotHere
             else:
                 after = ()
-            join = get("join")
             if join is None:
-                if "join" in raw:
-                    raise _NotHere
                 join = default_join
                 if not join_known:
                     self.defaulted.append(i)
             elif type(join) is not str or join not in joins:
                 raise _NotHere
-            name = get("name")
             if name is None:
-                if "name" in raw:
-                    raise _NotHere
                 name = id_
             elif type(name) is not str or not name_min <= len(name) <= name_max or surrogate(name):
                 raise _NotHere
-            params = get("params")
-            if params is None:
-                if "params" in raw:
-                    raise _NotHere
-            elif type(params) is not dict:
+            if params is not None and type(params) is not dict:
                 raise _NotHere
             if count_keys:
                 keys += len(raw) + (len(params) if params else 0)

@@ -35,6 +35,7 @@ costs what is active, not what waits.
 from __future__ import annotations
 
 import heapq
+from functools import cached_property
 from typing import Any, Mapping
 
 import networkx as nx
@@ -129,13 +130,23 @@ class _Walk:
         self.registry = registry
         self.depth = depth
         self.max_depth = max_depth
-        self.position = topological_positions(graph)
+        self.graph = graph
+        joins = [(v, p) for v, p in self.pred.items() if len(p) > 1]
+        if joins or not consume or any(len(s) > 1 for s in self.succ.values()):
+            # the order (and the cycle check) before anything is built; without joins and forks
+            # (a chain) no order is ever read, and build() finds a cycle by the entries it did not reach
+            self.position  # noqa: B018
         # column walk: (topological position, first entry, predecessors, join, hoisted fork's entry or "")
-        position, entry_of = self.position, self.entry_of
+        entry_of = self.entry_of
         self.heads: list[tuple[int, str, tuple[str, ...], str, str]] = [
-            (position[v], v, tuple(p), entry_of[v].join, "") for v, p in self.pred.items() if len(p) > 1
+            (self.position[v], v, tuple(p), entry_of[v].join, "") for v, p in joins
         ]
         heapq.heapify(self.heads)
+
+    @cached_property
+    def position(self) -> dict[str, int]:
+        """Each entry's place in the topological order (raises NetworkXUnfeasible on a cycle)."""
+        return topological_positions(self.graph)
 
     def leaf(self, v: str, wrap: bool) -> py_trees.behaviour.Behaviour:
         node = self.registry.build(self.entry_of[v], self.env)
@@ -233,6 +244,8 @@ class _Walk:
             seq = Sequence(name, memory=True, children=[Trigger(self.env, preds, join)])
             root.add_child(seq)
             self.chain(seq, v, self.depth + 1, fork_of=fork_of or None)
+        if self.consume and self.nodes:  # entries no walk reached: only a cycle hides them (when no order was taken)
+            raise nx.NetworkXUnfeasible("the timeline has a cycle")
         return root
 
 

@@ -16,6 +16,10 @@ nothing, because its checks assume what the earlier ones guarantee:
 
 Problems are raised together as :class:`~btgen_pytrees.errors.InvalidTestCase`.
 
+A valid document is usually decided in one pass instead, by :mod:`btgen_pytrees.onepass`,
+which builds the same :class:`TestCase`; whatever it does not accept runs through the
+stages above, so every error message comes from them.
+
 >>> case = load({"name": "t", "execute": [{"id": "A", "kind": "behavior", "action": "hold",
 ...                                        "params": {"duration": 1}}]})
 >>> case.entries[0].id, case.tick, case.timeout

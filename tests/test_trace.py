@@ -252,3 +252,77 @@ def test_a_signal_replacing_a_deleted_one_is_found_on_its_tick(fig1_path: str) -
             Blackboard.storage[prefix + "extra"] = 7
         recorder.finalise()
     assert recorder.trace.series("extra") == [(0.4, 7)]
+
+
+def _ticked_stock_tree(root: py_trees.behaviour.Behaviour, ticks: int, between: Any = None) -> tuple[Any, list[list[str]]]:
+    """Tick a stock py_trees tree with the recorder attached; snapshot every node after each tick."""
+    nodes = [node for _, node in walk(root)]
+    recorder = TraceRecorder(root)
+    root.setup_with_descendants()
+    statuses = []
+    for k in range(ticks):
+        if between is not None:
+            between(k)
+        recorder.initialise()
+        for node in root.tick():
+            recorder.run(node)
+        recorder.finalise()
+        statuses.append([CODES[n.status] for n in nodes])
+    return recorder.trace, statuses
+
+
+def test_a_selector_halting_a_lower_priority_child_while_it_runs_on_is_recorded() -> None:
+    """A Selector is reactive: it stays RUNNING while it halts the child a higher-priority one
+    overtook. The recorder looks below composites that finished, and below reactive ones always."""
+    Status = py_trees.common.Status
+    high = py_trees.behaviours.StatusQueue("high", queue=[Status.FAILURE, Status.FAILURE], eventually=Status.RUNNING)
+    low = py_trees.composites.Sequence("low", memory=True, children=[py_trees.behaviours.Running("low leaf")])
+    selector = py_trees.composites.Selector("selector", memory=False, children=[high, low])
+    root = py_trees.composites.Parallel("root", py_trees.common.ParallelPolicy.SuccessOnAll(),
+                                        children=[selector, py_trees.behaviours.Running("beside")])  # fmt: skip
+    trace, statuses = _ticked_stock_tree(root, 4)
+    for k, expected in enumerate(statuses):
+        assert trace.statuses_at(k) == expected, k
+    leaf = [n.name for n in trace.nodes].index("low leaf")
+    assert [(k, s) for k, i, s in trace.transitions() if i == leaf] == [(0, "running"), (2, "invalid")]
+
+
+def test_a_tree_stopped_by_its_host_between_ticks_is_recorded(fig1_path: str) -> None:
+    """A host may stop() the generated root between two ticks and tick it again: the recorder
+    notices on the next tick (nodes that were running and are not running again say so)."""
+    loaded = btgen_pytrees.load(fig1_path)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+
+    def between(k: int) -> None:
+        clock.set(round((k % 12) * loaded.tick, 9))
+        if k == 12:
+            root.stop(py_trees.common.Status.INVALID)
+
+    trace, statuses = _ticked_stock_tree(root, 16, between)
+    for k, expected in enumerate(statuses):
+        assert trace.statuses_at(k) == expected, k
+    assert any(k == 12 and s == "invalid" for k, _, s in trace.transitions())
+
+
+def test_a_tree_halted_by_a_host_composite_during_a_tick_is_recorded() -> None:
+    """The host's own Selector (not traced) halts the generated tree mid-run: every running node
+    of it is recorded as halted on that tick, though none of them was ticked."""
+    Status = py_trees.common.Status
+    ours = py_trees.composites.Sequence("ours", memory=True, children=[
+        py_trees.composites.Parallel("pair", py_trees.common.ParallelPolicy.SuccessOnAll(),
+                                     children=[py_trees.behaviours.Running("a"), py_trees.behaviours.Running("b")])])  # fmt: skip
+    urgent = py_trees.behaviours.StatusQueue("urgent", queue=[Status.FAILURE, Status.FAILURE], eventually=Status.SUCCESS)
+    host = py_trees.composites.Selector("host", memory=False, children=[urgent, ours])
+    nodes = [node for _, node in walk(ours)]
+    recorder = TraceRecorder(ours)
+    tree = py_trees.trees.BehaviourTree(host)
+    tree.add_visitor(recorder)
+    tree.setup()
+    statuses = []
+    for _ in range(4):
+        tree.tick()
+        statuses.append([CODES[n.status] for n in nodes])
+    assert statuses[1] == ["running"] * 4 and statuses[2] == ["invalid"] * 4
+    for k, expected in enumerate(statuses):
+        assert recorder.trace.statuses_at(k) == expected, k

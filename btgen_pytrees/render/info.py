@@ -15,7 +15,7 @@ from py_trees.decorators import Decorator
 
 from ..leaves.wiring import Completion, OrMember, RunStart, Trigger, WakingParallel
 
-__all__ = ["node_info", "walk", "symbol", "policy_name", "annotation", "role", "selected", "is_selected", "type_name"]
+__all__ = ["node_info", "walk", "symbol", "policy_name", "annotation", "role", "role_of", "selected", "is_selected", "type_name"]
 
 
 def walk(root: py_trees.behaviour.Behaviour) -> Iterator[tuple[int, py_trees.behaviour.Behaviour]]:
@@ -45,13 +45,22 @@ def policy_name(node: Parallel) -> str:
 
 def role(node: py_trees.behaviour.Behaviour) -> str:
     """``behavior``, ``constraint``, ``oracle``, ``trigger``, ``wiring`` or ``composite``."""
-    if getattr(node, "btgen_entry", None) is not None:
-        return node.btgen_entry.kind  # type: ignore[attr-defined, no-any-return]
-    if getattr(node, "btgen_criterion", None) is not None:
+    return role_of(type(node), getattr(node, "btgen_entry", None), getattr(node, "btgen_criterion", None))
+
+
+def role_of(cls: type, entry: Any = None, criterion: Any = None) -> str:
+    """:func:`role` from what decides it: the node's class and its ``btgen_entry``/``btgen_criterion`` tags.
+
+    >>> role_of(Trigger), role_of(Sequence)
+    ('trigger', 'composite')
+    """
+    if entry is not None:
+        return entry.kind  # type: ignore[no-any-return]
+    if criterion is not None:
         return "oracle"
-    if isinstance(node, Trigger):
+    if issubclass(cls, Trigger):
         return "trigger"
-    if isinstance(node, (Completion, OrMember, RunStart)):
+    if issubclass(cls, (Completion, OrMember, RunStart)):
         return "wiring"
     return "composite"
 

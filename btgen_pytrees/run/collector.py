@@ -26,7 +26,6 @@ them from the oracle leaves, which keep their own outcome.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Callable
 
 import py_trees
@@ -41,7 +40,8 @@ from .report import EntryResult, OracleResult, Report
 __all__ = ["Collector", "Trace", "trace_line"]
 
 Trace = Callable[[str], None]
-_DONE = (Status.SUCCESS, Status.FAILURE)
+_SUCCESS, _FAILURE = Status.SUCCESS, Status.FAILURE
+_NO_TAGS: dict[str, object] = {}
 
 
 def trace_line(now: float, event: str, what: str, message: str = "") -> str:
@@ -72,12 +72,19 @@ class Collector(py_trees.visitors.VisitorBase):
         self.env = root.btgen_env  # type: ignore[attr-defined]
         self.trace = trace
         self._nodes: list[tuple[int, py_trees.behaviour.Behaviour]] = []
+        self._criteria: list[py_trees.behaviour.Behaviour] = []  # oracle leaves, in tree order
         self._start: py_trees.behaviour.Behaviour | None = None
-        for node in root.iterate():
-            entry = getattr(node, "btgen_entry", None)
+        stack = [root]
+        while stack:  # pre-order, without recursion
+            node = stack.pop()
+            stack.extend(reversed(node.children))
+            tags = getattr(node, "__dict__", _NO_TAGS)
+            entry = tags.get("btgen_entry")
             if entry is not None:
                 self._nodes.append((entry.index, node))
-            elif isinstance(node, RunStart) and self._start is None:
+            elif tags.get("btgen_criterion") is not None:
+                self._criteria.append(node)
+            elif self._start is None and isinstance(node, RunStart):
                 self._start = node
         self._nodes.sort(key=lambda pair: pair[0])
         self.reset()
@@ -95,6 +102,8 @@ class Collector(py_trees.visitors.VisitorBase):
         self.ticks = 0
         self.duration = 0.0
         self.ending: tuple[str, str] | None = None  # (verdict, message) set by end()/raised()
+        self._now: float | None = None  # the clock, read once per tick (time stands still during a tick)
+        self._fresh = True  # nothing noted since the last reset
 
     # -- the visitor ---------------------------------------------------------------
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
@@ -105,22 +114,27 @@ class Collector(py_trees.visitors.VisitorBase):
             if behaviour is self.root:
                 self.ticks += 1
                 self.duration = self.env.now()
-            elif behaviour is self._start:
+                self._now = None  # the tick ends: the next one reads the clock again
+            elif behaviour is self._start and not self._fresh:
                 self.reset()
+            self._fresh = False
             self.last[key] = behaviour.status
             return
-        self.last[key] = behaviour.status
+        self._fresh = False
+        status = self.last[key] = behaviour.status
         if result.end is not None:
             return
-        now = self.env.now()
+        now = self._now
+        if now is None:
+            now = self._now = self.env.now()
         if result.start is None:
             result.start, result.status = now, "running"
             if self.trace:
                 self.trace(trace_line(now, "start", result.id))
-        if behaviour.status in _DONE:
+        if status is _SUCCESS or status is _FAILURE:
             result.end = now
-            result.status = "success" if behaviour.status == Status.SUCCESS else "failure"
-            result.message = behaviour.feedback_message if behaviour.status == Status.FAILURE else ""
+            result.status = "success" if status is _SUCCESS else "failure"
+            result.message = behaviour.feedback_message if status is _FAILURE else ""
             if self.trace:
                 self.trace(trace_line(now, result.status, result.id, result.message))
 
@@ -140,6 +154,7 @@ class Collector(py_trees.visitors.VisitorBase):
             culprit = result if result is not None else culprit
             tb = tb.tb_next
         now = self.env.now()
+        self._now = None
         self.ticks += 1
         self.duration = now
         message = str(exc) if isinstance(exc, SystemFailure) else f"{type(exc).__name__}: {exc}"
@@ -186,16 +201,15 @@ class Collector(py_trees.visitors.VisitorBase):
         """
         verdict, message = self.verdict()
         now = self.duration
-        execute = []
-        for result in self.ordered:  # copies: a report asked for mid-run does not change afterwards
-            stopped = result.status == "running" and verdict not in ("timeout", "running")
-            execute.append(replace(result, status="stopped") if stopped else replace(result))
+        execute = [result.copy() for result in self.ordered]  # a report asked for mid-run does not change afterwards
+        if verdict not in ("timeout", "running"):
+            for result in execute:
+                if result.status == "running":
+                    result.status = "stopped"
         oracles = []
         criteria = {}
-        for node in self.root.iterate():
-            criterion = getattr(node, "btgen_criterion", None)
-            if criterion is None:
-                continue
+        for node in self._criteria:
+            criterion = node.btgen_criterion  # type: ignore[attr-defined]
             if isinstance(node, Record) and verdict in ("pass", "fail", "timeout"):
                 node.conclude(now)
             outcome: Outcome = getattr(node, "outcome", None) or Outcome()

@@ -47,13 +47,15 @@ import itertools
 import math
 from array import array
 from dataclasses import dataclass, field
+from collections.abc import Sequence
 from typing import Any, Callable, Iterator, NamedTuple
 
 import py_trees
 from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
-from ..render.info import role, walk
+from ..leaves.wiring import WakingParallel
+from ..render.info import role_of
 
 __all__ = ["RunTrace", "TraceNode", "TraceRecorder", "STATUSES", "DEFAULT_LIMIT"]
 
@@ -67,10 +69,32 @@ def _code(status: Status) -> int:
     """The status code, by identity (hashing an Enum member runs Python code: too slow per node per tick)."""
     return 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
 
+_PLAIN, _COMPOSITE, _REACTIVE = 0, 1, 2
+_KEEPS_CHILDREN = (py_trees.composites.Parallel.tick, WakingParallel.tick, py_trees.decorators.Decorator.tick)
+
+
+def _kind(node: py_trees.behaviour.Behaviour) -> int:
+    """``_COMPOSITE`` (halts its children only when it finishes) or ``_REACTIVE`` (may halt them any time).
+
+    Judged by the ``tick`` the node's class runs (and, for a Sequence, its
+    ``memory``): py_trees' Parallel (and the execute root's
+    :class:`WakingParallel`) and a plain decorator stop their running children
+    only when they themselves finish, and so does a Sequence with memory; a
+    Selector (priority interrupts), a Sequence without memory or any composite
+    whose ``tick`` is its own may halt a child while it runs on. Only nodes
+    with children have a kind; the recorder treats the others as ``_PLAIN``.
+    """
+    tick = type(node).tick
+    if tick in _KEEPS_CHILDREN or (tick is py_trees.composites.Sequence.tick and getattr(node, "memory", False)):
+        return _COMPOSITE
+    return _REACTIVE
+
+
 DEFAULT_LIMIT = 2_000_000
 """Changes (status and signal) a trace keeps before it stops recording."""
 
 _SCALARS = (bool, int, float, str, type(None))
+_NO_TAGS: dict[str, Any] = {}
 
 
 class TraceNode(NamedTuple):
@@ -93,6 +117,64 @@ class TraceNode(NamedTuple):
     end: int
 
 
+class _NodeTable(Sequence):  # type: ignore[type-arg]
+    """:attr:`RunTrace.nodes`, made into :class:`TraceNode` rows only when somebody reads them.
+
+    Most runs never draw their trace (no ``--plot``, ``--replay`` or
+    ``--btlog``), so the recorder keeps just what the rows are made of - each
+    node's name, class and tags, and the pre-order subtree ends, not the nodes
+    themselves (a report must not keep its tree alive) - and the rows, parents
+    and depths are worked out on first use. Its length is known at once.
+    """
+
+    def __init__(self, behaviours: list[py_trees.behaviour.Behaviour], ends: list[int]):
+        self._names = [node.name for node in behaviours]
+        self._classes = [type(node) for node in behaviours]
+        tags = [getattr(node, "__dict__", _NO_TAGS) for node in behaviours]
+        self._entries = [t.get("btgen_entry") for t in tags]
+        self._criteria = [t.get("btgen_criterion") for t in tags]
+        self._ends = ends
+        self._rows: list[TraceNode] | None = None
+
+    def _made(self) -> list[TraceNode]:
+        if self._rows is None:
+            rows: list[TraceNode] = []
+            ends, open_ = self._ends, []  # the subtrees the node at i lies in
+            roles: dict[type, str] = {}
+            for i, (name, cls, entry, criterion) in enumerate(zip(self._names, self._classes, self._entries, self._criteria)):
+                while open_ and ends[open_[-1]] <= i:
+                    open_.pop()
+                if entry is None and criterion is None:
+                    role = roles.get(cls) or roles.setdefault(cls, role_of(cls))
+                else:
+                    role = role_of(cls, entry, criterion)
+                item = entry if entry is not None else criterion
+                rows.append(TraceNode(name, role, item.id if item is not None else "",
+                                      open_[-1] if open_ else -1, len(open_), ends[i]))  # fmt: skip
+                open_.append(i)
+            self._rows = rows
+            self._names = self._classes = self._entries = self._criteria = []  # type: ignore[assignment]
+        return self._rows
+
+    def __len__(self) -> int:
+        return len(self._ends)
+
+    def __getitem__(self, i: Any) -> Any:
+        return self._made()[i]
+
+    def __iter__(self) -> Iterator[TraceNode]:
+        return iter(self._made())
+
+    def __eq__(self, other: object) -> bool:
+        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
+
+    def __repr__(self) -> str:
+        return repr(self._made())
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (list, (self._made(),))  # pickled (or copied) as the plain list of rows
+
+
 @dataclass
 class RunTrace:
     """What happened on every tick of one run (see the module notes).
@@ -107,7 +189,7 @@ class RunTrace:
         limit: the cap on changes
     """
 
-    nodes: list[TraceNode]
+    nodes: Sequence[TraceNode]
     times: list[float] = field(default_factory=list)
     ticks: array = field(default_factory=lambda: array("L"))
     nodes_changed: array = field(default_factory=lambda: array("L"))
@@ -187,6 +269,13 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
     :meth:`initialise` before each tick, :meth:`run` for every node the tick
     yields, :meth:`finalise` after the tick (also after a tick that raised).
 
+    **Cost.** A tick costs the recorder what the tick itself visits, not the
+    size of the tree: :meth:`run` is one lookup and one comparison per visited
+    node, and the nodes that change without being visited (halted ones) are
+    looked for only below the composites that can have halted them on this
+    tick (see :meth:`finalise`), so the thousands of running-but-sleeping heads
+    of a large execute root are never looked at.
+
     Args:
         root: the tree (generated trees carry their environment, whose
             namespace says where the signals are)
@@ -197,30 +286,38 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
     def __init__(self, root: py_trees.behaviour.Behaviour, *, now: Callable[[], float] | None = None,
                  limit: int = DEFAULT_LIMIT):  # fmt: skip
         super().__init__(full=False)
-        self._behaviours: list[py_trees.behaviour.Behaviour] = []
-        rows: list[tuple[str, str, str, int, int]] = []
-        index: dict[int, int] = {}
-        stack: list[int] = []  # open subtrees, to fill in each node's end
-        ends: list[int] = []
-        for depth, node in walk(root):
-            i = len(self._behaviours)
-            while len(stack) > depth:
-                ends[stack.pop()] = i
-            stack.append(i)
-            ends.append(i + 1)
-            index[id(node)] = i
-            self._behaviours.append(node)
-            parent = index.get(id(node.parent), -1) if node is not root else -1
-            entry = getattr(node, "btgen_entry", None) or getattr(node, "btgen_criterion", None)
-            rows.append((node.name, role(node), entry.id if entry is not None else "", parent, depth))
-        for i in stack:
-            ends[i] = len(rows)
-        self.trace = RunTrace([TraceNode(*row, end) for row, end in zip(rows, ends)], limit=limit)
+        # One pass in pre-order (without recursion, as render.info.walk) collects the nodes; the
+        # subtree ends and kinds are then filled in for the composites only, last to first.
+        behaviours: list[py_trees.behaviour.Behaviour] = []
+        composites: list[int] = []
+        stack = [root]
+        while stack:
+            node = stack.pop()
+            children = node.children
+            if children:
+                composites.append(len(behaviours))
+                stack.extend(reversed(children))
+            behaviours.append(node)
+        index = {id(node): i for i, node in enumerate(behaviours)}
+        ends = list(range(1, len(behaviours) + 1))
+        kinds = bytearray(len(behaviours))
+        known: dict[tuple[type, Any], int] = {}
+        for i in reversed(composites):
+            node = behaviours[i]
+            ends[i] = ends[index[id(node.children[-1])]]
+            key = (type(node), getattr(node, "memory", None))
+            kind = known.get(key)
+            if kind is None:
+                kind = known[key] = _kind(node)
+            kinds[i] = kind
+        self.trace = RunTrace(_NodeTable(behaviours, ends), limit=limit)
+        self._behaviours = behaviours
         self._index = index
         self._ends = ends
-        self._last = bytearray(len(rows))
-        self._running: dict[int, py_trees.behaviour.Behaviour] = {}
-        self._walks: list[int] = []
+        self._kinds = kinds
+        self._last = bytearray(len(behaviours))
+        self._halts: list[int] = []  # composites visited this tick that may have halted nodes below them
+        self._walks: list[int] = []  # subtrees whose every node must be looked at (they were reset)
         env = getattr(root, "btgen_env", None)
         self._now = now if now is not None else (env.now if env is not None else (lambda: 0.0))
         self._prefix = env.namespace + "/signals/" if env is not None else None
@@ -236,42 +333,85 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         """A tick begins."""
         self._tick += 1
         self._walks.clear()
+        self._halts.clear()
+        if self._last[0] == 1 and self._behaviours[0].status is not _RUNNING:
+            self._walks.append(0)  # stopped between two ticks (a host's stop()): look at every node after this tick
 
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         """*behaviour* was ticked: note its status as it returned it."""
         i = self._index.get(id(behaviour))
         if i is None:  # a node added after the recorder was made: not traced
             return
+        status = behaviour.status
+        code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
         last = self._last[i]
-        if last >= 2 and self._ends[i] > i + 1:  # a finished composite runs again: its children were reset
-            self._walks.append(i)
-        code = _code(behaviour.status)
+        kind = self._kinds[i]
+        if kind:
+            if last >= 2:  # a finished composite runs again: its children were reset
+                self._walks.append(i)
+            if code != 1 or kind == _REACTIVE:  # it finished (halting its running children) or may halt any time
+                self._halts.append(i)
         if code != last:
-            self._note(i, code)
+            self._last[i] = code
+            if self._count < self.trace.limit and self.trace.truncated is None:
+                self._count += 1
+                trace = self.trace
+                trace.ticks.append(self._tick)
+                trace.nodes_changed.append(i)
+                trace.statuses.append(code)
+            elif self.trace.truncated is None:
+                self.trace.truncated = self._tick
 
     def finalise(self) -> None:
         """A tick ended: catch the nodes halted without a tick, then sample the signals.
 
-        Only a running node can be halted (a Parallel that finishes halts its
-        running children; a halted composite resets its whole subtree), so the
-        check costs one look per running node, not per node of the tree.
+        A node changes without being ticked only when something stops it: a
+        composite that finishes halts its running children (and a halted
+        composite resets its whole subtree); a reactive one (a ``Selector``, a
+        ``Sequence`` without memory, any composite or decorator whose ``tick``
+        is not one of py_trees' parallel, memory sequence or plain decorator
+        ticks) may halt them while it keeps running. Every such composite was
+        ticked itself on this tick, so only the nodes below the composites this
+        tick visited and that finished (or are reactive) are looked at, and of
+        those only the ones recorded as running - found by a byte search of the
+        recorded codes, not one look per node. A tree halted from outside (a
+        host's ``stop()`` on the generated root between ticks, or a host's own
+        composite halting it during one) is caught too: the root's own status
+        is compared before and after every tick.
         """
         self.trace.times.append(self._now())
-        ends = self._ends
-        halted = [(i, node) for i, node in self._running.items() if node.status is not _RUNNING]
-        for i, node in halted:
-            code = _code(node.status)
-            self._note(i, code)
-            if code == 0 and ends[i] > i + 1:
-                self._walks.append(i)
-        reach = -1
-        behaviours = self._behaviours
-        for i in sorted(self._walks):
-            for j in range(max(i, reach), ends[i]):
-                code = _code(behaviours[j].status)
-                if code != self._last[j]:
-                    self._note(j, code)
-            reach = max(reach, ends[i])
+        ends, last, behaviours = self._ends, self._last, self._behaviours
+        halts, walks = self._halts, self._walks
+        outside = last[0] == 1 and behaviours[0].status is not _RUNNING  # the root was stopped, not ticked
+        if outside:
+            halts.append(0)
+        if halts:
+            reach = -1
+            for i in sorted(halts):
+                lo, hi = max(i + 1, reach), ends[i]
+                j = last.find(1, lo, hi) if lo < hi else -1
+                while j >= 0:
+                    node = behaviours[j]
+                    code = _code(node.status)
+                    if code != 1:
+                        self._note(j, code)
+                        if code == 0 and ends[j] > j + 1:
+                            walks.append(j)
+                    j = last.find(1, j + 1, hi)
+                reach = max(reach, hi)
+        if outside:
+            code = _code(behaviours[0].status)
+            self._note(0, code)
+            if code == 0:
+                walks.append(0)
+        if walks:
+            reach = -1
+            for i in sorted(walks):
+                for j in range(max(i, reach), ends[i]):
+                    code = _code(behaviours[j].status)
+                    if code != last[j]:
+                        self._note(j, code)
+                reach = max(reach, ends[i])
         self._sample_signals()
 
     # -- recording ----------------------------------------------------------------------------------
@@ -288,10 +428,6 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
 
     def _note(self, i: int, code: int) -> None:
         self._last[i] = code
-        if code == 1:
-            self._running[i] = self._behaviours[i]
-        else:
-            self._running.pop(i, None)
         if self._room():
             self.trace.ticks.append(self._tick)
             self.trace.nodes_changed.append(i)

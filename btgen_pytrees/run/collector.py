@@ -35,13 +35,16 @@ from ..leaves.oracles import Outcome, Record
 from ..leaves.wiring import RunStart
 from ..systems.base import SystemFailure
 from .explain import explain, status_tree
+from .index import TreeIndex
 from .report import EntryResult, OracleResult, Report
+from .trace import TraceRecorder
 
 __all__ = ["Collector", "Trace", "trace_line"]
 
 Trace = Callable[[str], None]
-_SUCCESS, _FAILURE = Status.SUCCESS, Status.FAILURE
-_NO_TAGS: dict[str, object] = {}
+_RUNNING, _SUCCESS, _FAILURE = Status.RUNNING, Status.SUCCESS, Status.FAILURE
+_STATUSES = (Status.INVALID, _RUNNING, _SUCCESS, _FAILURE)  # by status code (run.trace.STATUSES)
+_ENTRY, _ROOT, _START = 1, 2, 3
 
 
 def trace_line(now: float, event: str, what: str, message: str = "") -> str:
@@ -63,65 +66,130 @@ class Collector(py_trees.visitors.VisitorBase):
         root: the root returned by :func:`btgen_pytrees.generate` (it carries
             the case and the environment whose clock times are read from)
         trace: called with one line per entry start and end, if given
+        record: also record the run's :class:`~btgen_pytrees.run.trace.RunTrace`
+            (every status and signal change, for ``--plot``, ``--replay`` and
+            ``--btlog``); a report made once the run has ended (and ticked at
+            least once) carries it as ``report.trace``. The runner records; a
+            host may too.
+
+    **Cost.** The collector keeps what it knows about each node in flat arrays
+    indexed by the node's pre-order number (:class:`~btgen_pytrees.run.index.TreeIndex`):
+    a visited node costs a look at its number and its status, and only the
+    nodes of execute entries, the root and the start leaf cost more. When it
+    records, it hands the recorder the number and status it has just read, so
+    a node is looked up once per tick, not once per visitor.
     """
 
-    def __init__(self, root: py_trees.behaviour.Behaviour, *, trace: Trace | None = None):
+    def __init__(self, root: py_trees.behaviour.Behaviour, *, trace: Trace | None = None, record: bool = False):
         super().__init__(full=False)
         self.root = root
         self.case = root.btgen_case  # type: ignore[attr-defined]
         self.env = root.btgen_env  # type: ignore[attr-defined]
         self.trace = trace
-        self._nodes: list[tuple[int, py_trees.behaviour.Behaviour]] = []
+        self.index = index = TreeIndex(root)
+        self.recorder: TraceRecorder | None = None
+        self._record = record
+        nodes = index.nodes
+        self._nodes = nodes
+        self._entries: list[int] = []  # the numbers of the entries' nodes, in entry order
         self._criteria: list[py_trees.behaviour.Behaviour] = []  # oracle leaves, in tree order
-        self._start: py_trees.behaviour.Behaviour | None = None
-        stack = [root]
-        while stack:  # pre-order, without recursion
-            node = stack.pop()
-            stack.extend(reversed(node.children))
-            tags = getattr(node, "__dict__", _NO_TAGS)
-            entry = tags.get("btgen_entry")
+        order: list[tuple[int, int]] = []
+        for i in index.tagged:
+            entry = getattr(nodes[i], "btgen_entry", None)
             if entry is not None:
-                self._nodes.append((entry.index, node))
-            elif tags.get("btgen_criterion") is not None:
-                self._criteria.append(node)
-            elif self._start is None and isinstance(node, RunStart):
-                self._start = node
-        self._nodes.sort(key=lambda pair: pair[0])
+                order.append((entry.index, i))
+            elif getattr(nodes[i], "btgen_criterion", None) is not None:
+                self._criteria.append(nodes[i])
+        order.sort()
+        self._entries = [i for _, i in order]
+        # what each node is to the collector: 1 an entry, 2 the root, 3 the start leaf (0: nothing)
+        self._watch = bytearray(len(nodes))
+        for i in self._entries:
+            self._watch[i] = _ENTRY
+        self._watch[0] = _ROOT
+        start = next((i for i, node in enumerate(nodes) if isinstance(node, RunStart)), None)
+        if start is not None and not self._watch[start]:
+            self._watch[start] = _START
         self.reset()
 
     def reset(self) -> None:
         """Forget everything: a new run begins."""
-        self.results: dict[int, EntryResult] = {}
+        self._slots: dict[int, EntryResult] = {}  # node number -> its entry's result
         self.ordered: list[EntryResult] = []
-        for _, node in self._nodes:
-            entry = node.btgen_entry  # type: ignore[attr-defined]
+        nodes = self._nodes
+        for i in self._entries:
+            entry = nodes[i].btgen_entry  # type: ignore[attr-defined]
             result = EntryResult(entry.id, entry.kind, name=entry.name)
-            self.results[id(node)] = result
+            self._slots[i] = result
             self.ordered.append(result)
-        self.last: dict[int, Status] = {}  # id(node) -> the status its last tick returned
+        self._returned = bytearray(len(nodes))  # per node: 1 + the code of the status its last tick returned (0: none)
         self.ticks = 0
         self.duration = 0.0
         self.ending: tuple[str, str] | None = None  # (verdict, message) set by end()/raised()
         self._now: float | None = None  # the clock, read once per tick (time stands still during a tick)
         self._fresh = True  # nothing noted since the last reset
+        if self._record:
+            self.recorder = TraceRecorder(self.root, index=self.index)
+
+    @property
+    def results(self) -> dict[int, EntryResult]:
+        """``id(node) -> EntryResult`` of every entry's node."""
+        return {id(self._nodes[i]): result for i, result in self._slots.items()}
+
+    @property
+    def last(self) -> dict[int, Status]:
+        """``id(node) -> Status`` its last tick returned, for every node ticked since the run began."""
+        nodes = self._nodes
+        return {id(nodes[i]): _STATUSES[code - 1] for i, code in enumerate(self._returned) if code}
 
     # -- the visitor ---------------------------------------------------------------
+    def initialise(self) -> None:
+        """A tick begins (the recorder's hook)."""
+        if self.recorder is not None:
+            self.recorder.initialise()
+
+    def finalise(self) -> None:
+        """A tick ended (the recorder looks for halted nodes and samples the signals)."""
+        if self.recorder is not None:
+            self.recorder.finalise()
+
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         """Note what *behaviour* (just ticked) means for the run; called for every visited node."""
-        key = id(behaviour)
-        result = self.results.get(key)
-        if result is None:
-            if behaviour is self.root:
+        try:  # the number the node carries, if it is this tree's (see TreeIndex)
+            i = behaviour.btgen_index  # type: ignore[attr-defined]
+            if self._nodes[i] is not behaviour:
+                raise LookupError
+        except (AttributeError, LookupError, TypeError):
+            i = self.index.number(behaviour)
+            if i is None:  # not in the generated tree (a host's own node)
+                return
+        status = behaviour.status
+        code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
+        self._returned[i] = code + 1
+        watch = self._watch[i]
+        if watch:
+            self._saw(i, watch, code, behaviour)
+        elif self._fresh:
+            self._fresh = False
+        if self.recorder is not None:
+            self.recorder.seen(i, code)
+
+    def _saw(self, i: int, watch: int, code: int, behaviour: py_trees.behaviour.Behaviour) -> None:
+        """Node *i* is the root, the start leaf or an entry's: what its tick means."""
+        if watch != _ENTRY:
+            if watch == _ROOT:
                 self.ticks += 1
                 self.duration = self.env.now()
                 self._now = None  # the tick ends: the next one reads the clock again
-            elif behaviour is self._start and not self._fresh:
+            elif not self._fresh:  # the start leaf again: the tree runs anew, and so does its trace
                 self.reset()
+                self._returned[i] = code + 1
+                if self.recorder is not None:
+                    self.recorder.initialise()  # the start leaf is the first node a tick of the tree yields
             self._fresh = False
-            self.last[key] = behaviour.status
             return
         self._fresh = False
-        status = self.last[key] = behaviour.status
+        result = self._slots[i]
         if result.end is not None:
             return
         now = self._now
@@ -131,10 +199,10 @@ class Collector(py_trees.visitors.VisitorBase):
             result.start, result.status = now, "running"
             if self.trace:
                 self.trace(trace_line(now, "start", result.id))
-        if status is _SUCCESS or status is _FAILURE:
+        if code >= 2:
             result.end = now
-            result.status = "success" if status is _SUCCESS else "failure"
-            result.message = behaviour.feedback_message if status is _FAILURE else ""
+            result.status = "success" if code == 2 else "failure"
+            result.message = behaviour.feedback_message if code == 3 else ""
             if self.trace:
                 self.trace(trace_line(now, result.status, result.id, result.message))
 
@@ -150,8 +218,7 @@ class Collector(py_trees.visitors.VisitorBase):
         culprit = None
         tb = exc.__traceback__
         while tb is not None:
-            result = self.results.get(id(tb.tb_frame.f_locals.get("self")))
-            culprit = result if result is not None else culprit
+            culprit = self._result_of(tb.tb_frame.f_locals.get("self")) or culprit
             tb = tb.tb_next
         now = self.env.now()
         self._now = None
@@ -164,6 +231,10 @@ class Collector(py_trees.visitors.VisitorBase):
             message = f"{culprit.id}: {message}" if isinstance(exc, SystemFailure) else f"{culprit.id} raised {message}"
         self.end("error", message)
         return culprit
+
+    def _result_of(self, node: object) -> EntryResult | None:
+        i = self.index.number(node) if isinstance(node, py_trees.behaviour.Behaviour) else None  # type: ignore[arg-type]
+        return self._slots.get(i) if i is not None else None
 
     def trace_end(self) -> None:
         """Trace what the end of the run did to the entries still running: ``stopped``, or ``running`` at a timeout."""
@@ -226,6 +297,8 @@ class Collector(py_trees.visitors.VisitorBase):
                         source=self.case.source)  # fmt: skip
         if require_complete:
             report = report.require_complete()
+        if self.recorder is not None and verdict != "running" and self.recorder.trace.times:
+            report.trace = self.recorder.trace  # a run that never ticked has no trace
         if report.verdict not in ("pass", "running"):
             report.explanation = report.explanation or explain(report, self.root, self.env, criteria, self.last)
             report.tree = status_tree(self.root, self.last)

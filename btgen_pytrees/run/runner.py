@@ -41,7 +41,6 @@ from ..model import TestCase
 from ..systems.base import System, SystemFailure
 from .collector import Collector, Trace
 from .report import Report
-from .trace import TraceRecorder
 
 __all__ = ["run", "run_tree", "create_system", "Trace"]
 
@@ -88,9 +87,8 @@ def run_tree(
     if system is None:
         system = create_system(case, registry)
     env = root.btgen_env  # type: ignore[attr-defined]
-    collector = Collector(root, trace=trace)
+    collector = Collector(root, trace=trace, record=True)  # record: report.trace, for --plot/--replay/--btlog
     see = collector.run
-    tracer = TraceRecorder(root)  # every status and signal change: report.trace, for --plot/--replay/--btlog
     last = int(case.timeout / case.tick + 1e-9)
     saved = env.clock, env.system
     env.clock, env.system = system, system
@@ -105,18 +103,17 @@ def run_tree(
         system.start(env)
         for k in range(last + 1):
             system.publish(env)
-            tracer.initialise()
+            collector.initialise()
             try:
                 for node in root.tick():
                     see(node)
-                    tracer.run(node)
             except BaseException as exc:  # noqa: BLE001 - a leaf raised (SystemExit, a SystemFailure too): report it
                 if is_interrupt(exc):
                     raise
-                tracer.finalise()
+                collector.finalise()
                 collector.raised(exc)
                 break
-            tracer.finalise()
+            collector.finalise()
             if root.status in _DONE:
                 break
             if k < last:
@@ -148,9 +145,7 @@ def run_tree(
             finally:
                 env.clock, env.system = saved
     collector.trace_end()
-    report = collector.report(require_complete=case.require_complete if require_complete is None else require_complete)
-    report.trace = tracer.trace
-    return report
+    return collector.report(require_complete=case.require_complete if require_complete is None else require_complete)
 
 
 def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None,

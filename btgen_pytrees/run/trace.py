@@ -56,6 +56,7 @@ from py_trees.common import Status
 
 from ..leaves.wiring import WakingParallel
 from ..render.info import role_of
+from .index import TreeIndex
 
 __all__ = ["RunTrace", "TraceNode", "TraceRecorder", "STATUSES", "DEFAULT_LIMIT"]
 
@@ -94,7 +95,7 @@ DEFAULT_LIMIT = 2_000_000
 """Changes (status and signal) a trace keeps before it stops recording."""
 
 _SCALARS = (bool, int, float, str, type(None))
-_NO_TAGS: dict[str, Any] = {}
+_UNTAGGED = (None, None)
 
 
 class TraceNode(NamedTuple):
@@ -122,18 +123,21 @@ class _NodeTable(Sequence):  # type: ignore[type-arg]
 
     Most runs never draw their trace (no ``--plot``, ``--replay`` or
     ``--btlog``), so the recorder keeps just what the rows are made of - each
-    node's name, class and tags, and the pre-order subtree ends, not the nodes
+    node's name and class, the tagged nodes' entries and criteria, and the
+    pre-order subtree ends, not the nodes
     themselves (a report must not keep its tree alive) - and the rows, parents
     and depths are worked out on first use. Its length is known at once.
     """
 
-    def __init__(self, behaviours: list[py_trees.behaviour.Behaviour], ends: list[int]):
+    def __init__(self, index: TreeIndex):
+        behaviours = index.nodes
         self._names = [node.name for node in behaviours]
         self._classes = [type(node) for node in behaviours]
-        tags = [getattr(node, "__dict__", _NO_TAGS) for node in behaviours]
-        self._entries = [t.get("btgen_entry") for t in tags]
-        self._criteria = [t.get("btgen_criterion") for t in tags]
-        self._ends = ends
+        self._items: dict[int, tuple[Any, Any]] = {}  # node number -> (entry, criterion), tagged nodes only
+        for i in index.tagged:
+            node = behaviours[i]
+            self._items[i] = (getattr(node, "btgen_entry", None), getattr(node, "btgen_criterion", None))
+        self._ends = index.ends
         self._rows: list[TraceNode] | None = None
 
     def _made(self) -> list[TraceNode]:
@@ -141,9 +145,11 @@ class _NodeTable(Sequence):  # type: ignore[type-arg]
             rows: list[TraceNode] = []
             ends, open_ = self._ends, []  # the subtrees the node at i lies in
             roles: dict[type, str] = {}
-            for i, (name, cls, entry, criterion) in enumerate(zip(self._names, self._classes, self._entries, self._criteria)):
+            items = self._items
+            for i, (name, cls) in enumerate(zip(self._names, self._classes)):
                 while open_ and ends[open_[-1]] <= i:
                     open_.pop()
+                entry, criterion = items.get(i, _UNTAGGED)
                 if entry is None and criterion is None:
                     role = roles.get(cls) or roles.setdefault(cls, role_of(cls))
                 else:
@@ -153,7 +159,8 @@ class _NodeTable(Sequence):  # type: ignore[type-arg]
                                       open_[-1] if open_ else -1, len(open_), ends[i]))  # fmt: skip
                 open_.append(i)
             self._rows = rows
-            self._names = self._classes = self._entries = self._criteria = []  # type: ignore[assignment]
+            self._names = self._classes = []  # type: ignore[assignment]
+            self._items = {}
         return self._rows
 
     def __len__(self) -> int:
@@ -284,35 +291,22 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
     """
 
     def __init__(self, root: py_trees.behaviour.Behaviour, *, now: Callable[[], float] | None = None,
-                 limit: int = DEFAULT_LIMIT):  # fmt: skip
+                 limit: int = DEFAULT_LIMIT, index: TreeIndex | None = None):  # fmt: skip
+        index = index if index is not None else TreeIndex(root)
         super().__init__(full=False)
-        # One pass in pre-order (without recursion, as render.info.walk) collects the nodes; the
-        # subtree ends and kinds are then filled in for the composites only, last to first.
-        behaviours: list[py_trees.behaviour.Behaviour] = []
-        composites: list[int] = []
-        stack = [root]
-        while stack:
-            node = stack.pop()
-            children = node.children
-            if children:
-                composites.append(len(behaviours))
-                stack.extend(reversed(children))
-            behaviours.append(node)
-        index = {id(node): i for i, node in enumerate(behaviours)}
-        ends = list(range(1, len(behaviours) + 1))
+        behaviours, ends = index.nodes, index.ends
         kinds = bytearray(len(behaviours))
         known: dict[tuple[type, Any], int] = {}
-        for i in reversed(composites):
+        for i in index.composites:
             node = behaviours[i]
-            ends[i] = ends[index[id(node.children[-1])]]
             key = (type(node), getattr(node, "memory", None))
             kind = known.get(key)
             if kind is None:
                 kind = known[key] = _kind(node)
             kinds[i] = kind
-        self.trace = RunTrace(_NodeTable(behaviours, ends), limit=limit)
-        self._behaviours = behaviours
+        self.trace = RunTrace(_NodeTable(index), limit=limit)
         self._index = index
+        self._behaviours = behaviours
         self._ends = ends
         self._kinds = kinds
         self._last = bytearray(len(behaviours))
@@ -325,7 +319,8 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         self._storage_size = -1
         self._values: dict[str, Any] = {}
         self._tick = -1
-        self._count = 0
+        self._left = limit  # changes still to be recorded
+        self._append = (self.trace.ticks.append, self.trace.nodes_changed.append, self.trace.statuses.append)
 
     # -- the visitor protocol -----------------------------------------------------------------------
 
@@ -339,11 +334,12 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
 
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         """*behaviour* was ticked: note its status as it returned it."""
-        i = self._index.get(id(behaviour))
-        if i is None:  # a node added after the recorder was made: not traced
-            return
-        status = behaviour.status
-        code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
+        i = self._index.number(behaviour)
+        if i is not None:  # else a node added after the recorder was made: not traced
+            self.seen(i, _code(behaviour.status))
+
+    def seen(self, i: int, code: int) -> None:
+        """Node number *i* was ticked and returned the status of *code* (the :class:`Collector` calls this)."""
         last = self._last[i]
         kind = self._kinds[i]
         if kind:
@@ -353,12 +349,12 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
                 self._halts.append(i)
         if code != last:
             self._last[i] = code
-            if self._count < self.trace.limit and self.trace.truncated is None:
-                self._count += 1
-                trace = self.trace
-                trace.ticks.append(self._tick)
-                trace.nodes_changed.append(i)
-                trace.statuses.append(code)
+            if self._left:
+                self._left -= 1
+                ticks, nodes, statuses = self._append
+                ticks(self._tick)
+                nodes(i)
+                statuses(code)
             elif self.trace.truncated is None:
                 self.trace.truncated = self._tick
 
@@ -417,14 +413,12 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
     # -- recording ----------------------------------------------------------------------------------
 
     def _room(self) -> bool:
-        trace = self.trace
-        if trace.truncated is not None:
-            return False
-        if self._count >= trace.limit:
-            trace.truncated = self._tick
-            return False
-        self._count += 1
-        return True
+        if self._left:
+            self._left -= 1
+            return True
+        if self.trace.truncated is None:
+            self.trace.truncated = self._tick
+        return False
 
     def _note(self, i: int, code: int) -> None:
         self._last[i] = code

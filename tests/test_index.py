@@ -1,0 +1,130 @@
+"""The pre-order index the run's visitors share, and the numbers it leaves on the nodes.
+
+A node's ``btgen_index`` is only a hint: these tests make it wrong (another
+index over part of the tree, a moved node, a node that cannot take attributes)
+and check that every visitor still finds every node, by ticking real trees.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import py_trees
+from hypothesis import HealthCheck, given, settings
+from py_trees.common import Status
+from test_trace import scenarios, ticked_with_snapshots
+
+import btgen_pytrees
+from btgen_pytrees.clock import VirtualClock
+from btgen_pytrees.render.info import walk
+from btgen_pytrees.run import Collector, run
+from btgen_pytrees.run.index import TreeIndex
+
+
+class Slotted(py_trees.behaviour.Behaviour):
+    """A leaf that takes no new attributes (as one with ``__slots__`` only would): it cannot carry its number."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "btgen_index":
+            raise AttributeError(name)
+        super().__setattr__(name, value)
+
+    def update(self) -> Status:
+        return Status.SUCCESS
+
+
+def test_numbers_are_pre_order_with_subtree_ends(fig1_path: str) -> None:
+    root = btgen_pytrees.generate(btgen_pytrees.load(fig1_path))
+    index = TreeIndex(root)
+    walked = [(depth, node) for depth, node in walk(root)]
+    assert index.nodes == [node for _, node in walked]
+    for i, (depth, node) in enumerate(walked):
+        assert index.number(node) == i == node.btgen_index
+        inside = [d for d, _ in walked[i + 1:index.ends[i]]]
+        assert all(d > depth for d in inside)  # its subtree is below it
+        assert index.ends[i] == len(walked) or walked[index.ends[i]][0] <= depth  # and ends where it ends
+    assert [i for i, node in enumerate(index.nodes) if node.children] == index.composites
+    assert all(getattr(index.nodes[i], "btgen_entry", None) or getattr(index.nodes[i], "btgen_criterion", None)
+               for i in index.tagged)  # fmt: skip
+
+
+def test_a_number_that_is_not_this_trees_is_not_believed() -> None:
+    a, b = py_trees.behaviours.Success("a"), Slotted("b")
+    root = py_trees.composites.Sequence("root", memory=True, children=[a, b])
+    index = TreeIndex(root)
+    assert index.number(b) == 2 and not hasattr(b, "btgen_index")
+    TreeIndex(a)  # a indexed alone: it now carries 0
+    assert a.btgen_index == 0 and index.number(a) == 1 and index.number(root) == 0
+    assert index.number(py_trees.behaviours.Success("elsewhere")) is None
+
+
+def test_a_run_is_the_same_when_another_index_renumbered_its_nodes(fig1_path: str) -> None:
+    """Renumber the nodes under the execute part between the collector's set-up and the run."""
+    loaded = btgen_pytrees.load(fig1_path)
+    expected = run(loaded)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    collector = Collector(root, record=True)
+    TreeIndex(root.children[0])  # every node of the timeline now carries a number one too small
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.add_visitor(collector)
+    tree.setup()
+    for k in range(100):
+        clock.set(round(k * loaded.tick, 9))
+        tree.tick()
+        if root.status != Status.RUNNING:
+            break
+    report = collector.report()
+    assert report.to_json() == expected.to_json()
+    assert list(report.trace.transitions()) == list(expected.trace.transitions())
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenarios())
+def test_the_collector_records_the_trace_the_recorder_records(data: dict[str, Any]) -> None:
+    """The runner's path (the collector hands each node to the recorder) against the recorder alone."""
+    alone, _, _ = ticked_with_snapshots(data)
+    loaded = btgen_pytrees.load(data)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    collector = Collector(root, record=True)
+    root.setup_with_descendants()
+    for k in range(int(loaded.timeout / loaded.tick) + 1):
+        clock.set(round(k * loaded.tick, 9))
+        collector.initialise()
+        for node in root.tick():
+            collector.run(node)
+        collector.finalise()
+        if root.status != Status.RUNNING:
+            break
+    fed = collector.report().trace
+    assert fed.times == alone.times and list(fed.transitions()) == list(alone.transitions())
+    assert {n: fed.series(n) for n in fed.signals} == {n: alone.series(n) for n in alone.signals}
+    assert fed.to_data() == run(loaded).trace.to_data()
+
+
+def test_a_host_rerun_starts_a_new_trace(fig1_path: str) -> None:
+    loaded = btgen_pytrees.load(fig1_path)
+    expected = run(loaded)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    tree = py_trees.trees.BehaviourTree(root)
+    collector = Collector(root, record=True)
+    tree.add_visitor(collector)
+    tree.setup()
+    reports = []
+    for _ in range(2):
+        for k in range(100):
+            clock.set(round(k * loaded.tick, 9))
+            tree.tick()
+            if k == 5:
+                assert collector.report().trace is None  # a report asked for mid-run has no trace yet
+            if root.status != Status.RUNNING:
+                break
+        reports.append(collector.report())
+        root.stop(Status.INVALID)
+    first, second = reports
+    assert first.trace is not second.trace
+    for report in reports:
+        assert report.to_json() == expected.to_json()
+        assert report.trace.to_data() == expected.trace.to_data()

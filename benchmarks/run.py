@@ -496,7 +496,7 @@ def plan(args: argparse.Namespace) -> list[Job]:
                 for shape in shapes]  # fmt: skip
 
     def runs(n: int) -> list[Job]:
-        return [Job("runs", n, shape, repeats=min(2, repeats(n)), clock=args.clock) for shape in shapes]
+        return [Job("runs", n, shape, repeats=args.repeats or 2, clock=args.clock) for shape in shapes]  # best of 2 at every size
 
     jobs = [job for n in sizes[:-1] for job in generation(n)]
     jobs += [job for n in args.run_sizes[:-1] for job in runs(n)]

@@ -93,15 +93,14 @@ class Collector(py_trees.visitors.VisitorBase):
         self._nodes = nodes
         self._entries: list[int] = []  # the numbers of the entries' nodes, in entry order
         self._criteria: list[py_trees.behaviour.Behaviour] = []  # oracle leaves, in tree order
-        order: list[tuple[int, int]] = []
+        at: dict[int, int] = {}  # entry index -> node number (no tuple per entry: 100k of them cost a full collection)
         for i in index.tagged:
             entry = getattr(nodes[i], "btgen_entry", None)
             if entry is not None:
-                order.append((entry.index, i))
+                at[entry.index] = i
             elif getattr(nodes[i], "btgen_criterion", None) is not None:
                 self._criteria.append(nodes[i])
-        order.sort()
-        self._entries = [i for _, i in order]
+        self._entries = [at[k] for k in sorted(at)]
         # what each node is to the collector: 1 an entry, 2 the root, 3 the start leaf (0: nothing)
         self._watch = bytearray(len(nodes))
         for i in self._entries:
@@ -127,7 +126,7 @@ class Collector(py_trees.visitors.VisitorBase):
         self.duration = 0.0
         self.ending: tuple[str, str] | None = None  # (verdict, message) set by end()/raised()
         self._now: float | None = None  # the clock, read once per tick (time stands still during a tick)
-        self._fresh = True  # nothing noted since the last reset
+        self._fresh = True  # no watched node (root, start leaf, entry) seen since the last reset
         if self._record:
             self.recorder = TraceRecorder(self.root, index=self.index)
 
@@ -169,8 +168,6 @@ class Collector(py_trees.visitors.VisitorBase):
         watch = self._watch[i]
         if watch:
             self._saw(i, watch, code, behaviour)
-        elif self._fresh:
-            self._fresh = False
         if self.recorder is not None:
             self.recorder.seen(i, code)
 
@@ -272,11 +269,11 @@ class Collector(py_trees.visitors.VisitorBase):
         """
         verdict, message = self.verdict()
         now = self.duration
-        execute = [result.copy() for result in self.ordered]  # a report asked for mid-run does not change afterwards
-        if verdict not in ("timeout", "running"):
-            for result in execute:
-                if result.status == "running":
-                    result.status = "stopped"
+        if verdict == "running":  # asked for mid-run: copies, which the rest of the run leaves alone
+            execute = [result.copy() for result in self.ordered]
+        else:  # the run is over: no tick changes its results any more (a re-run makes new ones)
+            stop = verdict != "timeout"
+            execute = [result.stopped() if stop and result.status == "running" else result for result in self.ordered]
         oracles = []
         criteria = {}
         for node in self._criteria:

@@ -55,6 +55,10 @@ class EntryResult:
         """
         return EntryResult(self.id, self.kind, self.status, self.start, self.end, self.message, self.name)
 
+    def stopped(self) -> EntryResult:
+        """A copy that says the entry was stopped (interrupted when the run ended)."""
+        return EntryResult(self.id, self.kind, "stopped", self.start, self.end, self.message, self.name)
+
 
 @dataclass
 class OracleResult:

@@ -95,7 +95,6 @@ DEFAULT_LIMIT = 2_000_000
 """Changes (status and signal) a trace keeps before it stops recording."""
 
 _SCALARS = (bool, int, float, str, type(None))
-_UNTAGGED = (None, None)
 
 
 class TraceNode(NamedTuple):
@@ -133,10 +132,10 @@ class _NodeTable(Sequence):  # type: ignore[type-arg]
         behaviours = index.nodes
         self._names = [node.name for node in behaviours]
         self._classes = [type(node) for node in behaviours]
-        self._items: dict[int, tuple[Any, Any]] = {}  # node number -> (entry, criterion), tagged nodes only
-        for i in index.tagged:
-            node = behaviours[i]
-            self._items[i] = (getattr(node, "btgen_entry", None), getattr(node, "btgen_criterion", None))
+        # node number -> its entry, its criterion: the tagged nodes only (and no tuple per node, which
+        # the garbage collector would have to look at)
+        self._entries = {i: getattr(behaviours[i], "btgen_entry", None) for i in index.tagged}
+        self._criteria = {i: getattr(behaviours[i], "btgen_criterion", None) for i in index.tagged}
         self._ends = index.ends
         self._rows: list[TraceNode] | None = None
 
@@ -145,11 +144,11 @@ class _NodeTable(Sequence):  # type: ignore[type-arg]
             rows: list[TraceNode] = []
             ends, open_ = self._ends, []  # the subtrees the node at i lies in
             roles: dict[type, str] = {}
-            items = self._items
+            entries, criteria = self._entries, self._criteria
             for i, (name, cls) in enumerate(zip(self._names, self._classes)):
                 while open_ and ends[open_[-1]] <= i:
                     open_.pop()
-                entry, criterion = items.get(i, _UNTAGGED)
+                entry, criterion = entries.get(i), criteria.get(i)
                 if entry is None and criterion is None:
                     role = roles.get(cls) or roles.setdefault(cls, role_of(cls))
                 else:
@@ -160,7 +159,7 @@ class _NodeTable(Sequence):  # type: ignore[type-arg]
                 open_.append(i)
             self._rows = rows
             self._names = self._classes = []  # type: ignore[assignment]
-            self._items = {}
+            self._entries, self._criteria = {}, {}
         return self._rows
 
     def __len__(self) -> int:

@@ -91,7 +91,6 @@ class Collector(py_trees.visitors.VisitorBase):
         self._record = record
         nodes = index.nodes
         self._nodes = nodes
-        self._entries: list[int] = []  # the numbers of the entries' nodes, in entry order
         self._criteria: list[py_trees.behaviour.Behaviour] = []  # oracle leaves, in tree order
         at: dict[int, int] = {}  # entry index -> node number (no tuple per entry: 100k of them cost a full collection)
         for i in index.tagged:
@@ -100,7 +99,7 @@ class Collector(py_trees.visitors.VisitorBase):
                 at[entry.index] = i
             elif getattr(nodes[i], "btgen_criterion", None) is not None:
                 self._criteria.append(nodes[i])
-        self._entries = [at[k] for k in sorted(at)]
+        self._entries = [at[k] for k in sorted(at)]  # the numbers of the entries' nodes, in entry order
         # what each node is to the collector: 1 an entry, 2 the root, 3 the start leaf (0: nothing)
         self._watch = bytearray(len(nodes))
         for i in self._entries:
@@ -163,7 +162,7 @@ class Collector(py_trees.visitors.VisitorBase):
             if i is None:  # not in the generated tree (a host's own node)
                 return
         status = behaviour.status
-        code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
+        code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0  # trace._code, inline
         self._returned[i] = code + 1
         watch = self._watch[i]
         if watch:

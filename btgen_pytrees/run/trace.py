@@ -347,15 +347,7 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
             if code != 1 or kind == _REACTIVE:  # it finished (halting its running children) or may halt any time
                 self._halts.append(i)
         if code != last:
-            self._last[i] = code
-            if self._left:
-                self._left -= 1
-                ticks, nodes, statuses = self._append
-                ticks(self._tick)
-                nodes(i)
-                statuses(code)
-            elif self.trace.truncated is None:
-                self.trace.truncated = self._tick
+            self._note(i, code)
 
     def finalise(self) -> None:
         """A tick ended: catch the nodes halted without a tick, then sample the signals.
@@ -422,9 +414,10 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
     def _note(self, i: int, code: int) -> None:
         self._last[i] = code
         if self._room():
-            self.trace.ticks.append(self._tick)
-            self.trace.nodes_changed.append(i)
-            self.trace.statuses.append(code)
+            ticks, nodes, statuses = self._append
+            ticks(self._tick)
+            nodes(i)
+            statuses(code)
 
     def _discover(self, storage: dict[str, Any]) -> None:
         """Find the signal keys: all of them on the first look or when keys went away, else

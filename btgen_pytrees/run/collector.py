@@ -117,7 +117,7 @@ class Collector(py_trees.visitors.VisitorBase):
         nodes = self._nodes
         for i in self._entries:
             entry = nodes[i].btgen_entry  # type: ignore[attr-defined]
-            result = EntryResult(entry.id, entry.kind, name=entry.name)
+            result = EntryResult(entry.id, entry.kind, "not-started", None, None, "", entry.name)  # positional: faster
             self._slots[i] = result
             self.ordered.append(result)
         self._returned = bytearray(len(nodes))  # per node: 1 + the code of the status its last tick returned (0: none)

@@ -570,24 +570,29 @@ class _Checker:
         checked: dict[Any, Mapping[str, Any]] = {}
         for i, raw in enumerate(raw_entries):
             after = self._after(i, raw, execute_ids, criteria_ids)
-            kind, action, params = raw["kind"], raw["action"], raw.get("params")
-            key = _params_key(kind, action, params)
-            frozen = checked.get(key) if key is not None else None
-            if frozen is not None:
-                expressions = EMPTY
-            else:
-                before = len(self.problems)
-                compiled = self._leaf(("execute", i), kind, action, params if params is not None else {})
-                frozen = _frozen(params)
-                expressions = _frozen(compiled)
-                if key is not None and not compiled and len(self.problems) == before and self._plain(kind, action, params):
-                    checked[key] = frozen
-            entries.append(Entry(
-                id=raw["id"], kind=kind, action=action, params=frozen, after=after,
-                join=raw.get("join", default_join), name=raw.get("name", raw["id"]), index=i,
-                expressions=expressions,
-            ))  # fmt: skip
+            entries.append(self.entry(i, raw, after, default_join, checked))
         return entries
+
+    def entry(self, i: int, raw: Mapping[str, Any], after: tuple[str, ...], join: str,
+              checked: dict[Any, Mapping[str, Any]]) -> Entry:  # fmt: skip
+        """Execute entry *i* (*after* already checked): its leaf's params checked, or shared from *checked*."""
+        kind, action, params = raw["kind"], raw["action"], raw.get("params")
+        key = _params_key(kind, action, params)
+        frozen = checked.get(key) if key is not None else None
+        if frozen is not None:
+            expressions = EMPTY
+        else:
+            before = len(self.problems)
+            compiled = self._leaf(("execute", i), kind, action, params if params is not None else {})
+            frozen = _frozen(params)
+            expressions = _frozen(compiled)
+            if key is not None and not compiled and len(self.problems) == before and self._plain(kind, action, params):
+                checked[key] = frozen
+        return Entry(
+            id=raw["id"], kind=kind, action=action, params=frozen, after=after,
+            join=raw.get("join", join), name=raw.get("name", raw["id"]), index=i,
+            expressions=expressions,
+        )  # fmt: skip
 
     def _plain(self, kind: str, action: str | None, params: Mapping[str, Any] | None) -> bool:
         """Whether *params* of this leaf hold no signal name or expression (so its check is path-independent)."""

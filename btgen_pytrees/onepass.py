@@ -441,8 +441,8 @@ class _Builder:
                 if entries[i] is not None:  # (the entries checked below take the document's join themselves)
                     entries[i] = replace(entries[i], join=join)  # type: ignore[arg-type]
         checked: dict[Any, Mapping[str, Any]] = {}
-        for i, raw in self.later:
-            entries[i] = self._entry(checker, i, raw, join, checked)
+        for i, raw in self.later:  # entries that needed the whole document: checked and built as the detailed checks do
+            entries[i] = checker.entry(i, raw, tuple(raw["after"]) if raw.get("after") else (), join, checked)
         criteria: list[Criterion] = checker.criteria()
         if checker.problems:
             return None
@@ -450,25 +450,6 @@ class _Builder:
         if self.forward and not _acyclic(done):
             return None
         return _case(data, done, criteria, checker.spec, self.registry, source)
-
-    @staticmethod
-    def _entry(checker: _Checker, i: int, raw: Mapping[str, Any], join: str, checked: dict[Any, Mapping[str, Any]]) -> Entry:
-        """An entry that needed the whole document, checked and built as the detailed checks do."""
-        from .loader import _params_key
-
-        kind, action, params = raw["kind"], raw["action"], raw.get("params")
-        key = _params_key(kind, action, params)
-        frozen = checked.get(key) if key is not None else None
-        expressions: Mapping[str, Any] = EMPTY
-        if frozen is None:
-            before = len(checker.problems)
-            compiled = checker._leaf(("execute", i), kind, action, params if params is not None else {})
-            frozen = _frozen(params)
-            expressions = _frozen(compiled)
-            if key is not None and not compiled and len(checker.problems) == before and checker._plain(kind, action, params):
-                checked[key] = frozen
-        after = tuple(raw["after"]) if raw.get("after") else ()
-        return Entry(raw["id"], kind, action, frozen, after, raw.get("join", join), raw.get("name", raw["id"]), i, expressions)
 
 
 def _nested_keys(value: Any) -> int:

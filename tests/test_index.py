@@ -12,7 +12,7 @@ from typing import Any
 import py_trees
 from hypothesis import HealthCheck, given, settings
 from py_trees.common import Status
-from test_trace import scenarios, ticked_with_snapshots
+from test_trace import scenarios, tick_like_the_runner, ticked_with_snapshots
 
 import btgen_pytrees
 from btgen_pytrees.clock import VirtualClock
@@ -88,15 +88,7 @@ def test_the_collector_records_the_trace_the_recorder_records(data: dict[str, An
     clock = VirtualClock()
     root = btgen_pytrees.generate(loaded, clock=clock)
     collector = Collector(root, record=True)
-    root.setup_with_descendants()
-    for k in range(int(loaded.timeout / loaded.tick) + 1):
-        clock.set(round(k * loaded.tick, 9))
-        collector.initialise()
-        for node in root.tick():
-            collector.run(node)
-        collector.finalise()
-        if root.status != Status.RUNNING:
-            break
+    tick_like_the_runner(loaded, root, clock, collector)
     fed = collector.report().trace
     assert fed.times == alone.times and list(fed.transitions()) == list(alone.transitions())
     assert {n: fed.series(n) for n in fed.signals} == {n: alone.series(n) for n in alone.signals}

@@ -10,7 +10,7 @@ halted mid-run). Memory: only changes are kept, and the cap holds.
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import Any, Callable
 
 import py_trees
 from helpers import case, crit, entry
@@ -54,6 +54,21 @@ def scenarios(draw: Any) -> dict[str, Any]:
     return case(*entries, criteria=criteria, signals={"a": 0, "b": 0, "c": 0}, tick=0.1, timeout=3)
 
 
+def tick_like_the_runner(loaded: Any, root: Any, clock: VirtualClock, visitor: Any,
+                         after_tick: Callable[[], None] = lambda: None) -> None:  # fmt: skip
+    """Tick *root* as the runner does, *visitor* driven as a BehaviourTree drives its visitors."""
+    root.setup_with_descendants()
+    for k in range(int(loaded.timeout / loaded.tick) + 1):
+        clock.set(round(k * loaded.tick, 9))
+        visitor.initialise()
+        for node in root.tick():
+            visitor.run(node)
+        visitor.finalise()
+        after_tick()
+        if root.status != py_trees.common.Status.RUNNING:
+            break
+
+
 def ticked_with_snapshots(data: dict[str, Any]) -> tuple[Any, list[list[str]], list[dict[str, Any]]]:
     """Tick like the runner, with the recorder attached; snapshot every node and signal after each tick."""
     loaded = btgen_pytrees.load(data)
@@ -63,17 +78,12 @@ def ticked_with_snapshots(data: dict[str, Any]) -> tuple[Any, list[list[str]], l
     nodes = [node for _, node in walk(root)]
     recorder = TraceRecorder(root)
     statuses, signals = [], []
-    root.setup_with_descendants()
-    for k in range(int(loaded.timeout / loaded.tick) + 1):
-        clock.set(round(k * loaded.tick, 9))
-        recorder.initialise()
-        for node in root.tick():
-            recorder.run(node)
-        recorder.finalise()
+
+    def snapshot() -> None:
         statuses.append([CODES[n.status] for n in nodes])
         signals.append({key[len(prefix):]: v for key, v in Blackboard.storage.items() if key.startswith(prefix)})
-        if root.status != py_trees.common.Status.RUNNING:
-            break
+
+    tick_like_the_runner(loaded, root, clock, recorder, snapshot)
     return recorder.trace, statuses, signals
 
 

@@ -272,7 +272,7 @@ class Collector(py_trees.visitors.VisitorBase):
             execute = [result.copy() for result in self.ordered]
         else:  # the run is over: no tick changes its results any more (a re-run makes new ones)
             stop = verdict != "timeout"
-            execute = [result.stopped() if stop and result.status == "running" else result for result in self.ordered]
+            execute = [result.copy("stopped") if stop and result.status == "running" else result for result in self.ordered]
         oracles = []
         criteria = {}
         for node in self._criteria:

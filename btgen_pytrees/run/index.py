@@ -46,7 +46,7 @@ class TreeIndex:
         nodes: list[py_trees.behaviour.Behaviour] = []
         composites: list[int] = []
         tagged: list[int] = []
-        untagged = True  # every node took its number so far
+        numbered = True  # every node took its number so far
         stack = [root]
         while stack:  # pre-order, without recursion (a chain of 100k entries is 100k levels deep)
             node = stack.pop()
@@ -60,8 +60,8 @@ class TreeIndex:
                 tagged.append(i)
             try:
                 node.btgen_index = i  # type: ignore[attr-defined]
-            except AttributeError:  # __slots__: found through the id() table
-                untagged = False
+            except AttributeError:  # a node that takes no attributes: found through the id() table
+                numbered = False
             nodes.append(node)
         ends = list(range(1, len(nodes) + 1))
         for i in reversed(composites):  # last to first: a composite's children are done before it
@@ -73,7 +73,7 @@ class TreeIndex:
         self.ends = ends
         self.composites = composites
         self.tagged = tagged
-        self._ids: dict[int, int] | None = None if untagged else self._table()
+        self._ids: dict[int, int] | None = None if numbered else self._table()
 
     def _table(self) -> dict[int, int]:
         return {id(node): i for i, node in enumerate(self.nodes)}

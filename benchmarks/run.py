@@ -440,7 +440,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help=f"entry counts (default {' '.join(map(str, SIZES))})")  # fmt: skip
     parser.add_argument("--shapes", nargs="+", choices=list(timelines.SHAPES), help="shapes to generate (default: all)")
     parser.add_argument("--repeats", type=int, metavar="R",
-                        help="repeats per measurement (default: 5 up to 2k, 3 up to 20k, then 1)")  # fmt: skip
+                        help="repeats per measurement (default: 5 up to 2k, 3 up to 20k, then 1; runs: 2 at every size)")  # fmt: skip
     parser.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT, metavar="S",
                         help=f"seconds allowed per case (default {DEFAULT_TIMEOUT:g})")  # fmt: skip
     parser.add_argument("--budget", type=float, default=DEFAULT_BUDGET, metavar="S",

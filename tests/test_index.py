@@ -120,3 +120,51 @@ def test_a_host_rerun_starts_a_new_trace(fig1_path: str) -> None:
     for report in reports:
         assert report.to_json() == expected.to_json()
         assert report.trace.to_data() == expected.trace.to_data()
+
+
+def test_two_generated_trees_under_one_host_each_collect_their_own_run(fig1_path: str) -> None:
+    """Each collector meets the other tree's nodes, which carry numbers of another index: it ignores them."""
+    loaded = btgen_pytrees.load(fig1_path)
+    expected = run(loaded)
+    clock = VirtualClock()
+    ours = [btgen_pytrees.generate(loaded, clock=clock, namespace=f"/host/t{k}") for k in range(2)]
+    host = py_trees.composites.Parallel("host", policy=py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=True),
+                                        children=ours)  # fmt: skip
+    tree = py_trees.trees.BehaviourTree(host)
+    collectors = [Collector(root, record=True) for root in ours]
+    for collector in collectors:
+        tree.add_visitor(collector)
+    tree.setup()
+    for k in range(100):
+        clock.set(round(k * loaded.tick, 9))
+        tree.tick()
+        if host.status != Status.RUNNING:
+            break
+    for collector in collectors:
+        report = collector.report()
+        assert report.to_json() == expected.to_json()
+        assert report.trace.to_data() == expected.trace.to_data()
+
+
+def test_a_report_made_before_a_host_rerun_keeps_its_results(fig1_path: str) -> None:
+    """A finished report shares the collector's entry results; the re-run must not change them."""
+    loaded = btgen_pytrees.load(fig1_path)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    tree = py_trees.trees.BehaviourTree(root)
+    collector = Collector(root, record=True)
+    tree.add_visitor(collector)
+    tree.setup()
+    for k in range(100):
+        clock.set(round(k * loaded.tick, 9))
+        tree.tick()
+        if root.status != Status.RUNNING:
+            break
+    first = collector.report()
+    before, transitions = first.to_json(), list(first.trace.transitions())
+    root.stop(Status.INVALID)
+    for k in range(12):  # part of a second run
+        clock.set(round(k * loaded.tick, 9))
+        tree.tick()
+    assert collector.report().verdict == "running"
+    assert first.to_json() == before and list(first.trace.transitions()) == transitions

@@ -413,8 +413,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if files is not None:
         if args.json or args.trace:
             raise UsageError("--json/--trace take one file; with several use --out-dir (a report per file)")
-        if args.replay or args.btlog:
-            raise UsageError("--replay/--btlog take one file")
+        if args.replay or args.btlog or args.signals_out:
+            raise UsageError("--replay/--btlog/--signals-out take one file")
         plot = None
         if args.plot:
             if not args.out_dir:
@@ -443,9 +443,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                       lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system, args.max_work,
                                     args.require_complete),
                       after=junit)  # fmt: skip
-    for option in ("json", "junit", "plot", "replay", "btlog"):
-        _check_output(getattr(args, option), f"--{option}", [args.file])
+    for option in ("json", "junit", "plot", "replay", "btlog", "signals_out"):
+        _check_output(getattr(args, option), f"--{option.replace('_', '-')}", [args.file])
     _replay_check(args)
+    if args.signals_out:  # a bad suffix or a missing pyarrow: found out before the run
+        from .run.export import ExportUnavailable, export_format, require_pyarrow
+
+        try:
+            if export_format(args.signals_out) == "parquet":
+                require_pyarrow()
+        except (ValueError, ExportUnavailable) as exc:
+            raise UsageError(str(exc)) from None
     if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
         from .run.plot import plot_format
 
@@ -455,8 +463,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if has_variations(data):  # a sweep: every variation (btgen_pytrees.sweep)
         from .sweep.command import run_sweep
 
-        if args.replay or args.btlog:
-            raise UsageError("--replay/--btlog take one case, not a sweep's variations")
+        if args.replay or args.btlog or args.signals_out:
+            raise UsageError("--replay/--btlog/--signals-out take one case, not a sweep's variations")
 
         return run_sweep(args, data, _system(args))
     registry = _registry(args)
@@ -475,7 +483,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         from .run.plot import plot_bytes, plot_format
 
-        outputs.append((args.plot, plot_bytes(report, case, plot_format(args.plot))))
+        outputs.append((args.plot, plot_bytes(report, case, plot_format(args.plot), args.signals)))
+    if args.signals_out:
+        from .run.export import export_format, table_bytes
+
+        outputs.append((args.signals_out, table_bytes(report, case, export_format(args.signals_out), args.signals)))
     outputs += _replay_outputs(args, report, case, registry, logged)
     shown = {args.json: "json", args.junit: "btcpp"}  # '-': printed like any view, escaped for a terminal
     outputs = [(t, _stdout_text(d, shown.get(t, "")).encode("utf-8") if t == "-" and isinstance(d, str) else d)
@@ -587,6 +599,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--system", metavar="TYPE[:CONFIG]", help="run against this system instead of the case's own (CONFIG relative to the current directory); checked like the case's 'system'")
     run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")
     run.add_argument("--replay", metavar="PATH", help="write a replay page of the run to PATH: one self-contained HTML file (tree, time slider, statuses, signals, verdicts); needs Graphviz")
+    run.add_argument("--signals", action="append", metavar="PATTERN", help="draw/export only the signals matching this glob (repeatable: ego.*, *.speed); for --plot, --replay, --signals-out")
+    run.add_argument("--signals-out", metavar="PATH", help="write every signal on every tick, and every entry's and criterion's status, as a table: .csv, or .parquet (needs pyarrow: the 'parquet' extra)")
     run.add_argument("--max-depth", type=_non_negative, metavar="N", help="--replay: draw nodes down to depth N only (default: collapse deep subtrees of trees over 400 nodes)")
     run.add_argument("--max-work", type=_positive, default=MAX_WORK, metavar="N",
                      help=f"work budget of a run: ticks x (entries + criteria + 10), default {MAX_WORK:.0e}; a case over it is refused before running")  # fmt: skip

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, Mapping
 
-__all__ = ["Expression", "ExpressionError", "parse", "why_false", "RESERVED", "MAX_LENGTH"]
+__all__ = ["Expression", "ExpressionError", "parse", "why_false", "bounds", "RESERVED", "MAX_LENGTH"]
 
 MAX_LENGTH = 1000
 """Longest accepted expression, in characters (keeps parsing and products bounded)."""
@@ -191,6 +191,46 @@ def parse(text: str) -> Expression:
     except (MemoryError, RecursionError):
         raise ExpressionError("expression nested too deeply") from None
     return Expression(text, names, code, tuple((alias, name) for name, alias in aliases.items()))
+
+
+def bounds(expression: Expression) -> list[tuple[str, str, float]]:
+    """Each comparison of a signal with a number in *expression*: ``(signal, operator, number)``.
+
+    The signal is on the left as written (``30 >= speed`` is ``("speed", "<=", 30)``);
+    chains give one item per link that compares a signal with a number; comparisons of
+    two signals or of a function's result give none. What the run picture draws as bounds.
+
+    >>> bounds(parse("0 <= ego.x < 5 && sim.collisions == 0 || 30 >= speed"))
+    [('ego.x', '>=', 0.0), ('ego.x', '<', 5.0), ('sim.collisions', '==', 0.0), ('speed', '<=', 30.0)]
+    """
+    aliases: dict[str, str] = {}
+    try:
+        tree = ast.parse(_translate(expression.source, aliases).strip(), mode="eval")
+    except (ExpressionError, SyntaxError, RecursionError, MemoryError):
+        return []
+    dotted = {alias: name for name, alias in aliases.items()}
+    mirror = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "==", "!=": "!="}
+    found: list[tuple[str, str, float]] = []
+    compares = sorted((n for n in ast.walk(tree) if isinstance(n, ast.Compare)), key=lambda n: n.col_offset)
+    for node in compares:  # in the order written
+        sides = [node.left, *node.comparators]
+        for (left, right), op in zip(zip(sides, sides[1:]), node.ops):
+            text = _COMPARE[type(op)]
+            number = _number_of(right)
+            if isinstance(left, ast.Name) and left.id not in FUNCTIONS and number is not None:
+                found.append((dotted.get(left.id, left.id), text, number))
+            elif isinstance(right, ast.Name) and right.id not in FUNCTIONS and _number_of(left) is not None:
+                found.append((dotted.get(right.id, right.id), mirror[text], _number_of(left)))  # type: ignore[arg-type]
+    return found
+
+
+def _number_of(node: ast.expr) -> float | None:
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        inner = _number_of(node.operand)
+        return -inner if inner is not None else None
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+        return float(node.value)
+    return None
 
 
 # -- why an expression is false -------------------------------------------------------------------

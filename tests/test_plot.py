@@ -64,8 +64,9 @@ def test_failing_run_rows_and_red_lines(fig1_path: str) -> None:
     assert rows["B4"].start == 1.5
     figure = plot_figure(report, case_)
     red_lines = [line for ax in figure.axes for line in ax.get_lines()
-                 if line.get_color() == COLOURS["fail"] and list(line.get_xdata()) == [1.6, 1.6]]  # fmt: skip
-    assert len(red_lines) == 2  # across the timeline and the signals
+                 if line.get_color() == COLOURS["fail"] and list(line.get_xdata()) == [1.6, 1.6]
+                 and line.get_label() != "_margin"]  # fmt: skip
+    assert len(red_lines) == len(figure.axes) == 4  # across the timeline and every signal panel
     timeline_axes = figure.axes[0]
     labels = [t.get_text() for t in timeline_axes.get_yticklabels()]
     assert labels[0].startswith("B1") and any(t.startswith("R1") for t in labels)
@@ -172,7 +173,7 @@ def test_readme_run_picture_is_current(fig1_path: str) -> None:
     made_by = re.search(rb"Matplotlib v(\S+),", committed)
     if made_by and made_by.group(1).decode() == matplotlib.__version__:
         fresh = plot_bytes(run(case_), case_, "svg")
-        assert fresh == committed, "regenerate: python -m btgen_pytrees run examples/fig1.json --plot docs/images/fig1-run.svg"
+        assert fresh == committed, "regenerate: python docs/pictures.py plots"
 
 
 def test_signal_panel_draws_every_signal_change_from_the_trace() -> None:

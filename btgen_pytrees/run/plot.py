@@ -31,20 +31,23 @@ from __future__ import annotations
 
 import html
 import io
+import math
 import os
 import textwrap
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Sequence
 
 from ..errors import printable, shorten, xml_safe
+from ..expressions import bounds
 from ..model import TestCase
+from .export import ordered_signals, select
 from .report import Report
 
 if TYPE_CHECKING:  # pragma: no cover - types only
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["Row", "timeline_rows", "plot_figure", "plot_run", "plot_bytes", "plot_format", "require_matplotlib",
+__all__ = ["Row", "timeline_rows", "signal_panels", "plot_figure", "plot_run", "plot_bytes", "plot_format", "require_matplotlib",
            "PlotUnavailable", "SUFFIXES", "COLOURS"]  # fmt: skip
 
 SUFFIXES = {".svg": "svg", ".png": "png", ".html": "html", ".htm": "html"}
@@ -154,20 +157,29 @@ def _criterion_span(kind: str, criterion: Any, at: float | None, verdict: str, d
 # -- drawing ----------------------------------------------------------------------------------------
 
 
-def plot_figure(report: Report, case: TestCase) -> Figure:
-    """The run picture as a matplotlib Figure (not attached to pyplot, so no GUI backend is involved)."""
+def plot_figure(report: Report, case: TestCase, signals: Sequence[str] | None = None) -> Figure:
+    """The run picture as a matplotlib Figure (not attached to pyplot, so no GUI backend is involved).
+
+    *signals*: shell globs choosing the signals drawn (``--signals``; default all, in telling order).
+    """
     import matplotlib
 
     with matplotlib.rc_context({"text.parse_math": False}):  # a '$' in a name is a dollar sign, not math
-        return _plot_figure(report, case)
+        return _plot_figure(report, case, signals)
 
 
-def _capped(rows: list[Row], limit: int) -> tuple[list[Row], int]:
-    """At most *limit* rows: every failed row first (up to the limit), then the others in order."""
+def _capped(rows: list[Row], limit: int, report: Report | None = None) -> tuple[list[Row], int]:
+    """At most *limit* rows, but never without the rows that carry the verdict.
+
+    Kept first, whatever the limit: every failed row and every criterion whose
+    verdict counts for the run (:meth:`Report.decisive`); then the other rows in
+    order until *limit*. The kept rows stay in file order.
+    """
     if len(rows) <= limit:
         return rows, 0
-    keep = {i for i, row in enumerate(rows) if row.failed_at is not None}
-    keep = set(sorted(keep)[:limit])
+    decisive = {o.id for o in report.oracles if report.decisive(o)} if report is not None else set()
+    keep = {i for i, row in enumerate(rows)
+            if row.failed_at is not None or (row.section == "oracle" and (report is None or row.id in decisive))}
     for i in range(len(rows)):
         if len(keep) >= limit:
             break
@@ -175,53 +187,73 @@ def _capped(rows: list[Row], limit: int) -> tuple[list[Row], int]:
     return [row for i, row in enumerate(rows) if i in keep], len(rows) - len(keep)
 
 
-def _plot_figure(report: Report, case: TestCase) -> Figure:
+def _plot_figure(report: Report, case: TestCase, patterns: Sequence[str] | None) -> Figure:
     from matplotlib.figure import Figure
 
-    rows, hidden = _capped(timeline_rows(report, case), MAX_ROWS)
-    samples = _signal_series(report)
-    if len(samples) > MAX_SIGNALS:
-        hidden_signals = len(samples) - MAX_SIGNALS
-        samples = dict(list(samples.items())[:MAX_SIGNALS])
-    else:
-        hidden_signals = 0
+    rows, hidden = _capped(timeline_rows(report, case), MAX_ROWS, report)
+    series = _signal_series(report)
+    chosen = ordered_signals(report, case, select(series, patterns))
+    panels, left_out = _panels({name: series[name] for name in chosen}, _kinds(report))
     height_rows = max(1.6, 0.32 * len(rows) + 0.9)
-    height_signals = 2.4 if samples else 0.0
-    fig = Figure(figsize=(11, height_rows + height_signals + 1.1), layout="constrained")
-    if samples:
-        top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[height_rows, height_signals])
-    else:
-        top, bottom = fig.subplots(1, 1), None
+    heights = [height_rows] + [PANEL_HEIGHT] * len(panels)
+    width = 11.0
+    subtitle = _subtitle(report, rows, hidden, left_out, len(chosen), width)
+    title_height = 0.3 + 0.2 * (subtitle.count("\n") + 1 if subtitle else 0)
+    fig = Figure(figsize=(width, sum(heights) + 0.6 + title_height), layout="constrained")
+    axes = fig.subplots(len(heights), 1, sharex=True, height_ratios=heights, squeeze=False)[:, 0]
+    top = axes[0]
     span = max(report.duration, case.tick, 1e-3)
     _draw_rows(top, rows, span)
-    if bottom is not None:
-        _draw_signals(bottom, samples, report, span)
+    for ax, (title, names) in zip(axes[1:], panels):
+        _draw_panel(ax, title, names, series, report, case, span)
+    if panels:
         top.set_xlabel("")  # the signals below carry the shared time axis
-    for axes in (top, bottom):
-        if axes is not None:
-            for row in rows:
-                if row.failed_at is not None:
-                    axes.axvline(row.failed_at, color=COLOURS["fail"], linewidth=1.2, alpha=0.8)
+        for ax in axes[:-1]:
+            ax.set_xlabel("")
+        axes[-1].set_xlabel("run time, s")
+    failures = sorted({row.failed_at for row in rows if row.failed_at is not None})
+    for ax in axes:
+        for at in failures:
+            ax.axvline(at, color=COLOURS["fail"], linewidth=1.2, alpha=0.8)
     top.set_xlim(-0.02 * span, span * 1.04)
-    verdict = f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({report.ticks} ticks)"
+    verdict = printable(f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({report.ticks} ticks)")
     colour = COLOURS["pass"] if report.passed else COLOURS["fail"]
-    subtitle = "\n".join(textwrap.wrap(printable(shorten(report.message, 600)), 120)) if report.message else ""
-    if hidden or hidden_signals:
-        left_out = [f"{hidden} of {hidden + len(rows)} rows" if hidden else "",
-                    f"{hidden_signals} of {hidden_signals + len(samples)} signals" if hidden_signals else ""]  # fmt: skip
-        subtitle += ("\n" if subtitle else "") + (
-            f"not drawn: {' and '.join(w for w in left_out if w)} (limits {MAX_ROWS} rows, {MAX_SIGNALS} signals;"
-            " failures are always drawn; the JSON report has everything)")
-    verdict = printable(verdict)
-    fig.suptitle(verdict + ("\n" + subtitle if subtitle else ""), color=colour, fontsize=12, fontweight="bold")
+    fig.suptitle(verdict, color=colour, fontsize=12, fontweight="bold")
+    if subtitle:
+        # the figure's own text, wrapped to its width (its lines were counted into its height)
+        top.set_title(subtitle, fontsize=SUBTITLE_SIZE, color=colour, loc="left", pad=8)
     return fig
 
 
-MAX_ROWS = 200
-"""Most timeline rows drawn (entries and criteria); a 20k-entry run would need a 6,000-inch figure."""
+def _subtitle(report: Report, rows: list[Row], hidden: int, left_out: list[str], drawn: int, width: float) -> str:
+    """Why it ended, and what was not drawn; wrapped to fit *width* inches of :data:`SUBTITLE_SIZE` text."""
+    chars = int(width * 72 / (SUBTITLE_SIZE * 0.62))
+    lines = textwrap.wrap(printable(shorten(report.message, 400)), chars) if report.message else []
+    notes = []
+    if hidden:
+        notes.append(f"{hidden} of {hidden + len(rows)} rows (limit {MAX_ROWS}; failures and deciding criteria are"
+                     " always drawn)")  # fmt: skip
+    if left_out:
+        named = ", ".join(left_out[:6]) + (f", … ({len(left_out) - 6} more)" if len(left_out) > 6 else "")
+        notes.append(f"{len(left_out)} of {drawn} signals ({named}; limits {MAX_PANELS} panels of"
+                     f" {MAX_PER_PANEL}; choose with --signals)")  # fmt: skip
+    if notes:
+        lines += textwrap.wrap("not drawn: " + "; ".join(notes) + "; the JSON report and --signals-out have"
+                               " everything", chars)  # fmt: skip
+    return "\n".join(lines[:8])
 
-MAX_SIGNALS = 20
-"""Most signal curves drawn."""
+
+MAX_ROWS = 200
+"""Most timeline rows drawn (entries and criteria) besides the rows that carry the verdict."""
+
+MAX_PANELS = 8
+"""Most signal panels drawn."""
+
+MAX_PER_PANEL = 6
+"""Most curves in one panel (each its own colour)."""
+
+PANEL_HEIGHT = 1.5
+SUBTITLE_SIZE = 9
 
 
 def _draw_rows(ax: Axes, rows: list[Row], span: float) -> None:
@@ -334,31 +366,136 @@ def _signal_series(report: Report) -> dict[str, list[tuple[float, float]]]:
     return {name: sorted(points.items()) for name, points in sorted(samples.items())}
 
 
-def _draw_signals(ax: Axes, series: dict[str, list[tuple[float, float]]], report: Report, span: float) -> None:
+def _kinds(report: Report) -> dict[str, str]:
+    """Each signal's kind: ``flag`` (only booleans), ``integer`` (only integers) or ``value``."""
+    kinds: dict[str, str] = {}
+    trace = report.trace
+    if trace is not None:
+        for name, (_, values) in trace.signals.items():
+            numbers = [v for v in values if isinstance(v, (bool, int, float))]
+            if numbers and all(isinstance(v, bool) for v in numbers):
+                kinds[name] = "flag"
+            elif numbers and all(isinstance(v, int) for v in numbers):
+                kinds[name] = "integer"
+            else:
+                kinds[name] = "value"
+    return kinds
+
+
+def signal_panels(report: Report, case: TestCase, signals: Sequence[str] | None = None) -> list[tuple[str, list[str]]]:
+    """The signal panels the run picture draws, as data: ``[(title, [signal, ...]), ...]``.
+
+    The chosen signals (*signals*: globs, as ``--signals``) in telling order
+    (:func:`~.export.ordered_signals`) are grouped: booleans into one panel of
+    flags, the others by kind (integers as steps, other numbers as lines) and
+    order of magnitude of their largest finite value, so that a lane index is
+    never squashed flat under a position in metres. Panels come in the order of
+    their most telling signal; past :data:`MAX_PANELS` panels or
+    :data:`MAX_PER_PANEL` curves in one the rest is left out (the picture says so).
+    """
+    series = _signal_series(report)
+    chosen = ordered_signals(report, case, select(series, signals))
+    return _panels({name: series[name] for name in chosen}, _kinds(report))[0]
+
+
+def _magnitude(points: list[tuple[float, float]]) -> int:
+    finite = [abs(v) for _, v in points if math.isfinite(v)]
+    top = max(finite, default=0.0)
+    return math.floor(math.log10(top)) if top > 0 else 0
+
+
+def _panels(series: dict[str, list[tuple[float, float]]], kinds: dict[str, str] | None = None
+            ) -> tuple[list[tuple[str, list[str]]], list[str]]:  # fmt: skip
+    """``(panels, left out)`` for *series* (already in telling order)."""
+    kinds = kinds if kinds is not None else {}
+    groups: dict[tuple[str, int], list[str]] = {}
     for name, points in series.items():
-        times = [t for t, _ in points] + [max(report.duration, points[-1][0])]
-        values = [v for _, v in points] + [points[-1][1]]
-        ax.step(times, values, where="post", label=name, linewidth=1.4)
-        ax.plot(times[:-1], values[:-1], linestyle="none", marker=".", markersize=4, color="black")
+        kind = kinds.get(name, "value")
+        groups.setdefault((kind, 0 if kind == "flag" else _magnitude(points)), []).append(name)
+    panels, left_out = [], []
+    for (kind, magnitude), names in groups.items():  # insertion order: the order of each group's first signal
+        if len(panels) >= MAX_PANELS:
+            left_out += names
+            continue
+        left_out += names[MAX_PER_PANEL:]
+        names = names[:MAX_PER_PANEL]
+        if kind == "flag":
+            title = "flags"
+        else:
+            scale = f"up to ~{10 ** (magnitude + 1):g}" if magnitude >= 0 else f"under ~{10 ** (magnitude + 1):g}"
+            title = ("integers " if kind == "integer" else "") + scale
+        panels.append((f"{kind}:{title}", names))
+    left_out.sort(key=list(series).index)
+    return panels, left_out
+
+
+def _draw_panel(ax: Axes, title: str, names: list[str], series: dict[str, list[tuple[float, float]]],
+                report: Report, case: TestCase, span: float) -> None:  # fmt: skip
+    kind, label = title.split(":", 1)
+    end = max(report.duration, span)
+    colours = [f"C{i}" for i in range(10)]
+    if kind == "flag":  # one lane per flag, like a logic analyser: 0 low, 1 high
+        for i, name in enumerate(names):
+            points = series[name]
+            times = [t for t, _ in points] + [max(end, points[-1][0])]
+            values = [i + 0.7 * v for _, v in points] + [i + 0.7 * points[-1][1]]
+            ax.step(times, values, where="post", label=name, linewidth=1.4, color=colours[i])
+        ax.set_yticks([i + 0.35 for i in range(len(names))], names, fontsize=7)
+        ax.set_ylim(-0.3, len(names))
+    else:
+        for i, name in enumerate(names):
+            points = series[name]
+            times = [t for t, _ in points] + [max(end, points[-1][0])]
+            values = [v for _, v in points] + [points[-1][1]]
+            if kind == "integer":
+                ax.step(times, values, where="post", label=name, linewidth=1.4, color=colours[i])
+            else:
+                ax.plot(times, values, label=name, linewidth=1.4, color=colours[i])
+        _draw_bounds(ax, names, report, case)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+    ax.set_ylabel(label, fontsize=7)
+    ax.tick_params(axis="y", labelsize=7)
+    ax.grid(linewidth=0.3)
+    # the values a failing criterion read, at its time
     for oracle in report.oracles:
         if oracle.verdict == "fail" and oracle.at is not None:
             for name, value in oracle.values.items():
-                if name in series and isinstance(value, (bool, int, float)):
-                    ax.plot([oracle.at], [float(value)], marker="o", markersize=7, color=COLOURS["fail"], zorder=4)
-    ax.set_ylabel("signals", fontsize=8)
-    ax.set_xlabel("run time, s")
-    ax.grid(linewidth=0.3)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+                if name in names and isinstance(value, (bool, int, float)):
+                    y = names.index(name) + 0.7 * float(value) if kind == "flag" else float(value)
+                    ax.plot([oracle.at], [y], marker="X", markersize=9, color=COLOURS["fail"],
+                            markeredgecolor="black", zorder=5, label="_violation")  # fmt: skip
 
 
-def plot_bytes(report: Report, case: TestCase, fmt: str) -> bytes:
-    """The run picture as ``svg``, ``png`` or ``html`` (a page with the verdict table and the SVG)."""
+def _draw_bounds(ax: Axes, names: list[str], report: Report, case: TestCase) -> None:
+    """Each criterion's bound on a drawn signal as a dashed line; where it failed, the distance to it in red."""
+    verdicts = {o.id: o for o in report.oracles}
+    for criterion in case.criteria:
+        oracle = verdicts.get(criterion.id)
+        failed = oracle is not None and oracle.verdict == "fail" and oracle.at is not None
+        for signal, op, bound in bounds(criterion.expect):
+            if signal not in names or not math.isfinite(bound):
+                continue
+            colour = COLOURS["fail"] if failed else "#555555"
+            ax.axhline(bound, color=colour, linestyle="--", linewidth=0.9, alpha=0.9, label="_bound")
+            ax.annotate(printable(f"{criterion.id}: {signal} {op} {bound:g}"), (0.0, bound), xycoords=("axes fraction", "data"),
+                        xytext=(3, 2), textcoords="offset points", fontsize=7, color=colour)  # fmt: skip
+            value = oracle.values.get(signal) if failed else None  # type: ignore[union-attr]
+            if isinstance(value, (bool, int, float)) and math.isfinite(float(value)):
+                ax.plot([oracle.at, oracle.at], [bound, float(value)], color=COLOURS["fail"], linewidth=2.5,  # type: ignore[union-attr]
+                        solid_capstyle="butt", zorder=4, label="_margin")  # fmt: skip
+
+
+def plot_bytes(report: Report, case: TestCase, fmt: str, signals: Sequence[str] | None = None) -> bytes:
+    """The run picture as ``svg``, ``png`` or ``html`` (a page with the verdict table and the SVG).
+
+    *signals*: shell globs choosing the signals drawn (default: all, in telling order).
+    """
     require_matplotlib()
     import matplotlib
 
     if fmt not in ("svg", "png", "html"):
         raise ValueError(f"fmt must be svg, png or html, not {fmt!r}")
-    figure = plot_figure(report, case)
+    figure = plot_figure(report, case, signals)
     buffer = io.BytesIO()
     # a fixed hash salt and no date make the SVG the same bytes on every run; text stays text
     with matplotlib.rc_context({"svg.hashsalt": "btgen_pytrees", "svg.fonttype": "none", "text.parse_math": False}):
@@ -383,7 +520,7 @@ def _html_page(report: Report, svg: str) -> bytes:
     return page.encode("utf-8")
 
 
-def plot_run(report: Report, case: TestCase, path: str) -> None:
+def plot_run(report: Report, case: TestCase, path: str, signals: Sequence[str] | None = None) -> None:
     """Write the run picture of *report* to *path* (``.svg``, ``.png`` or ``.html``).
 
     Written as every output is (:func:`btgen_pytrees.output.write_file`): complete or not at all,
@@ -391,4 +528,4 @@ def plot_run(report: Report, case: TestCase, path: str) -> None:
     """
     from ..output import write_file
 
-    write_file(path, plot_bytes(report, case, plot_format(path)))
+    write_file(path, plot_bytes(report, case, plot_format(path), signals))

@@ -37,9 +37,12 @@ see :mod:`btgen_pytrees.leaves.environment`).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 import os
 import subprocess
+import sys
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
 from py_trees.blackboard import Blackboard
@@ -72,8 +75,16 @@ _active: "SumoSystem | None" = None
 
 
 def libsumo_module() -> Any:
-    """Import libsumo (only SUMO cases need it); a clear :class:`SystemFailure` when it is missing."""
+    """Import libsumo (only SUMO cases need it); a clear :class:`SystemFailure` when it is missing.
+
+    libsumo's first import prints a warning on stdout when a pyarrow of another
+    version than SUMO's own is installed (the ``parquet`` extra); stdout carries
+    the run's table and ``--json -``, so that print goes nowhere.
+    """
     try:
+        if "libsumo" not in sys.modules:
+            with contextlib.redirect_stdout(io.StringIO()):
+                import libsumo  # noqa: F401
         import libsumo
     except ImportError as exc:
         raise SystemFailure(f"the 'sumo' system needs libsumo ({exc}); install the extra: {INSTALL_HINT}") from None

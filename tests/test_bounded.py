@@ -132,7 +132,7 @@ def test_the_plot_of_a_big_run_is_capped() -> None:
     figure = plot_figure(run(loaded), loaded)
     labels = [t.get_text() for t in figure.axes[0].get_yticklabels()]
     assert len(labels) == MAX_ROWS and any(label.startswith("F  final") for label in labels)  # the failure is kept
-    assert "not drawn: 201 of 401 rows" in figure._suptitle.get_text()
+    assert "not drawn: 201 of 401 rows" in figure.axes[0].get_title(loc="left")
 
 
 def test_graphviz_gets_a_timeout_with_a_clear_message() -> None:

@@ -1,6 +1,8 @@
 """The full tree: execute and oracle subtrees under one Parallel.
 
-The root is ``Parallel(case.name, SuccessOnSelected([exit]))`` with children
+The root is ``Parallel(case.name, SuccessOnSelected([exit]))`` (a
+:class:`~btgen_pytrees.leaves.wiring.TreeRoot`, which reads the clock once per
+tick) with children
 ``[execute, oracle]``. The exit condition is the oracle subtree when it has
 *others* criteria (the paper), else the execute subtree. A failure of either
 child fails the root. The execute subtree is wrapped in a
@@ -19,11 +21,9 @@ from __future__ import annotations
 from typing import Any
 
 import py_trees
-from py_trees.composites import Parallel
-
 from ..clock import Clock
 from ..leaves import Environment, Registry, default_registry, unique_namespace
-from ..leaves.wiring import EXECUTE, Completion
+from ..leaves.wiring import EXECUTE, Completion, TreeRoot
 from ..model import TestCase
 from ..timeline import _graph
 from .execute import EXECUTE_DEPTH, MAX_DEPTH, _walk_consuming
@@ -45,8 +45,9 @@ def generate(
     Args:
         case: from :func:`btgen_pytrees.load`
         registry: leaf factories (default: the built-in simulated leaves)
-        clock: what leaves read time from (default: wall-clock time); the
-            simulator passes a :class:`~btgen_pytrees.clock.VirtualClock`
+        clock: what leaves read time from (default: wall-clock time), read
+            once at the start of each tick of the root; the runner gives the
+            system's time (see :func:`btgen_pytrees.run.run_tree`)
         namespace: blackboard namespace for the tree's keys (default: derived
             from the test name, unique in this process)
         max_depth: deepest level a node may sit at (root = 1)
@@ -68,7 +69,7 @@ def generate(
     children: list[Any] = [execute] if oracle is None else [execute, oracle]
     exit_condition = oracle if others is not None else execute
     policy = py_trees.common.ParallelPolicy.SuccessOnSelected([exit_condition], synchronise=True)
-    root = Parallel(case.name, policy, children)
+    root = TreeRoot(case.name, policy, children, env)
     root.btgen_env = env  # type: ignore[attr-defined]
     root.btgen_case = case  # type: ignore[attr-defined]
     return root

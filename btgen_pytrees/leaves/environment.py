@@ -11,6 +11,13 @@ completion flags, and keys of the host application are never touched::
     <ns>/execute_done     set when the execute subtree has succeeded
     <ns>/t0               clock time of the run's first tick
 
+**One tick, one time.** The clock is read once per tick of the tree, when its
+root (:class:`~btgen_pytrees.leaves.wiring.TreeRoot`) begins the tick
+(:meth:`Environment.begin_tick`): every leaf, oracle and visitor of that tick
+sees the same :meth:`Environment.now`, whatever clock it is (a wall clock moves
+while a tick runs), and so does whatever reads it after the tick, until the
+next one begins.
+
 Values are stored in :attr:`py_trees.blackboard.Blackboard.storage` under those
 absolute keys (so py_trees' blackboard views show them). Reads go to the storage
 directly rather than through a :class:`py_trees.blackboard.Client`: client
@@ -95,6 +102,7 @@ class Environment:
         self._failed = ns + "/failed/"
         self._execute_done = ns + "/execute_done"
         self._t0 = ns + "/t0"
+        self._tick_time: float | None = None  # the clock as read when the current (or last) tick began
         self._done_listeners: list[Callable[[str], None]] = []
         self._flags = KeyMetaData()  # shared by the completion flags' keys (see the module docstring)
 
@@ -118,14 +126,26 @@ class Environment:
                 storage.pop(signals + name, None)
         self._written = set()
         self._runs += 1
-        _set(self._t0, self.clock.now())
+        _set(self._t0, self.clock.now() if self._tick_time is None else self._tick_time)
         for name, value in self.initial_signals.items():
             if signals + name not in storage:
                 self.write(name, value)
 
+    def begin_tick(self) -> float:
+        """A tick of the tree begins: read the clock, once; :meth:`now` answers from this reading
+        until the next tick begins. Returns the reading."""
+        t = self._tick_time = self.clock.now()
+        return t
+
     def now(self) -> float:
-        """Seconds since the run's first tick (0.0 before it)."""
-        return self.clock.now() - Blackboard.storage.get(self._t0, self.clock.now())
+        """Seconds since the run's first tick (0.0 before it), as of the tick that runs (or ran last).
+
+        Before the tree's root has ever ticked (a leaf ticked on its own) the clock is read at each call.
+        """
+        t = self._tick_time
+        if t is None:
+            t = self.clock.now()
+        return t - Blackboard.storage.get(self._t0, t)
 
     # -- signals ---------------------------------------------------------
     def read(self, name: str) -> Any:

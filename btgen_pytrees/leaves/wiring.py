@@ -3,6 +3,8 @@
 None of these stand for an entry of the test case; they make the timeline's
 ordering work without the leaves knowing about it:
 
+* :class:`TreeRoot` - the generated root: a ``Parallel`` that reads the
+  clock once per tick, so every node of a tick sees one time.
 * :class:`RunStart` - first leaf of the ``begin`` sequence: clears what an
   earlier run left in the tree's namespace, notes t0, writes the initial signals
   that have no value yet (see :meth:`Environment.start_run`).
@@ -29,10 +31,34 @@ from py_trees.common import Status
 
 from .environment import Environment
 
-__all__ = ["RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
+__all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
 
 EXECUTE = None
 """``Completion(marks=EXECUTE)`` marks the whole execute subtree."""
+
+
+class TreeRoot(py_trees.composites.Parallel):
+    """The root of a generated tree: a py_trees ``Parallel`` that begins each tick by reading the clock.
+
+    :meth:`tick` calls :meth:`Environment.begin_tick <btgen_pytrees.leaves.Environment.begin_tick>`
+    and then ticks exactly as ``Parallel`` does, so every node of one tick (and
+    every visitor, and the report) sees one time - also with a clock that moves
+    while the tick runs (the default :class:`~btgen_pytrees.clock.WallClock`).
+    Views show it as the ``Parallel`` it is.
+
+    Args:
+        name, policy, children: as for ``Parallel``
+        env: the tree's environment
+    """
+
+    def __init__(self, name: str, policy: py_trees.common.ParallelPolicy.Base,
+                 children: typing.Sequence[py_trees.behaviour.Behaviour], env: Environment):  # fmt: skip
+        super().__init__(name, policy, children)
+        self.env = env
+
+    def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
+        self.env.begin_tick()  # a generator: py_trees calls tick() (without running it) when it builds or stops a node
+        yield from super().tick()
 
 
 class RunStart(py_trees.behaviour.Behaviour):

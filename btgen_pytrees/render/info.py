@@ -13,7 +13,7 @@ import py_trees
 from py_trees.composites import Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
-from ..leaves.wiring import Completion, OrMember, RunStart, Trigger, WakingParallel
+from ..leaves.wiring import Completion, OrMember, RunStart, TreeRoot, Trigger, WakingParallel
 
 __all__ = ["node_info", "walk", "symbol", "policy_name", "annotation", "role", "role_of", "selected", "is_selected", "type_name"]
 
@@ -66,12 +66,13 @@ def role_of(cls: type, entry: Any = None, criterion: Any = None) -> str:
 
 
 def type_name(node: py_trees.behaviour.Behaviour) -> str:
-    """The node's class name; ``Parallel`` for the execute root's :class:`WakingParallel`.
+    """The node's class name; ``Parallel`` for the execute root's :class:`WakingParallel` and the tree's :class:`TreeRoot`.
 
-    That composite ticks exactly as a ``Parallel(SuccessOnAll(synchronise=True))``
-    (it only skips ticks that would change nothing), so reviewers see it as one.
+    The first ticks exactly as a ``Parallel(SuccessOnAll(synchronise=True))``
+    (it only skips ticks that would change nothing), the second exactly as a
+    ``Parallel`` (it reads the clock first), so reviewers see them as such.
     """
-    return "Parallel" if isinstance(node, WakingParallel) else type(node).__name__
+    return "Parallel" if isinstance(node, (WakingParallel, TreeRoot)) else type(node).__name__
 
 
 def node_info(node: py_trees.behaviour.Behaviour) -> dict[str, Any]:

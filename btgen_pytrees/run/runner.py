@@ -5,11 +5,15 @@ One run drives the case's :class:`~btgen_pytrees.systems.System` (the built-in
 
     create -> start -> [publish, tree tick, system tick]* -> close
 
-and the system's time is the run's clock: the tree's environment reads
-``system.now()`` for the whole run. With the simulated system tick *k* happens
-at ``t = k * tick`` (t = 0 on the first tick); nothing sleeps, so a 60 s test
-runs as fast as its tree ticks, and the same input gives the same run to the
-byte. The run ends when the root finishes (its exit condition succeeded, or
+and the system's time is the run's one clock: the runner reads ``system.now()``
+once before each tree tick, and that reading is the time every leaf, oracle,
+report, trace and view of the tick sees (minus the reading at the first tick,
+which is 0 for the simulated and SUMO systems: run time *is* their time). A
+system whose ``now()`` is not a finite number, or goes back in time, breaks
+that contract: the run ends with verdict ``error`` naming the system and what
+it returned. With the simulated system tick *k* happens at ``t = k * tick``
+(t = 0 on the first tick); nothing sleeps, so a 60 s test runs as fast as its
+tree ticks, and the same input gives the same run to the byte. The run ends when the root finishes (its exit condition succeeded, or
 something failed) or after the tick at ``timeout`` (``timeout / tick`` steps);
 the system is not stepped after the last tree tick. ``close`` is always called:
 on pass, fail, timeout, a leaf that raised, a :class:`SystemFailure` (verdict
@@ -29,11 +33,14 @@ the same visitor a host application attaches to its own tree.
 
 from __future__ import annotations
 
+import math
+from numbers import Real
 from typing import Any
 
 import py_trees
 from py_trees.common import Status
 
+from ..clock import VirtualClock
 from ..construct import generate
 from ..errors import is_interrupt
 from ..leaves import Registry, default_registry
@@ -76,8 +83,8 @@ def run_tree(
     Args:
         root, case: from :func:`~btgen_pytrees.generate` and :func:`~btgen_pytrees.load`
         clock: ignored; kept so that older callers work. The tree reads the
-            system's time during the run (its environment's clock is the system,
-            and is put back afterwards)
+            system's time during the run (its environment's clock holds
+            ``system.now()``, read once per tick; it is put back afterwards)
         system: a new, not started instance; default: :func:`create_system`
             for ``case.system`` from *registry* (default: the default registry)
         trace: called with one line per entry start/end
@@ -91,7 +98,9 @@ def run_tree(
     see = collector.run
     last = int(case.timeout / case.tick + 1e-9)
     saved = env.clock, env.system
-    env.clock, env.system = system, system
+    clock = VirtualClock()  # holds the system's time, read once per tick
+    env.clock, env.system = clock, system
+    then = -math.inf
     try:
         try:
             root.setup_with_descendants()
@@ -102,6 +111,8 @@ def run_tree(
             return collector.report()
         system.start(env)
         for k in range(last + 1):
+            then = _system_time(case, system, then)
+            clock.set(then)
             system.publish(env)
             collector.initialise()
             try:
@@ -166,6 +177,21 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
         return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}",
                       source=case.source)
     return run_tree(root, case, system=system, trace=trace, require_complete=require_complete)
+
+
+def _system_time(case: TestCase, system: System, then: float) -> float:
+    """``system.now()``, checked: a finite number of seconds, not before *then* (the last tick's)."""
+    now = system.now()
+    if isinstance(now, Real) and not isinstance(now, bool):
+        seconds = float(now)
+        if math.isfinite(seconds) and seconds >= then:
+            return seconds
+        if math.isfinite(seconds):
+            raise SystemFailure(f"the {case.system.type!r} system's time ran backwards: now() returned {seconds!r} "
+                                f"after {then!r} (a system's time never decreases)")  # fmt: skip
+    shown = repr(now)
+    shown = shown if len(shown) <= 60 else type(now).__name__
+    raise SystemFailure(f"the {case.system.type!r} system's now() returned {shown}, not a finite number of seconds")
 
 
 def _system_error(case: TestCase, exc: BaseException) -> str:

@@ -9,6 +9,7 @@ rule as the Graphviz tests.
 from __future__ import annotations
 
 import importlib.util
+import math
 import os
 import pathlib
 import shutil
@@ -195,10 +196,10 @@ SCENARIO = """<routes>
 
 def sumo_case(tmp_path: pathlib.Path, *entries: dict[str, Any], criteria: list[dict[str, Any]] | None = None,
               routes: str = SCENARIO, options: list[str] | None = None, timeout: float = 20,
-              name: str = "t") -> pathlib.Path:  # fmt: skip
+              name: str = "t", tick: float = 0.1) -> pathlib.Path:  # fmt: skip
     """A case file over the example road with *routes*; returns its path."""
     scenario_dir(tmp_path, routes=routes)
-    data: dict[str, Any] = {"name": name, "tick": 0.1, "timeout": timeout,
+    data: dict[str, Any] = {"name": name, "tick": tick, "timeout": timeout,
                             "system": {"type": "sumo", "config": "s.sumocfg", "options": options or []},
                             "execute": list(entries)}  # fmt: skip
     if criteria is not None:
@@ -565,3 +566,191 @@ def test_ctrl_c_in_a_sumo_run_closes_the_simulation_and_goes_on(tmp_path: pathli
         run(btgen_pytrees.load(path, registry=registry), registry=registry)
     assert not libsumo.simulation.isLoaded()
     assert run(btgen_pytrees.load(EXAMPLES / "cut_in.json")).verdict == "fail"
+
+
+# ---------------------------------------------------------------------------
+# the truth outside the project: libsumo's own getters, read by a probe leaf during the run
+
+
+class Probe:
+    """Registers ``probe {duration, vehicles}``: a leaf that, on every tick until *duration*, notes the run's time
+    and what libsumo itself says - SUMO's time and step, and per vehicle its lane index and leader."""
+
+    def __init__(self) -> None:
+        self.seen: list[dict[str, Any]] = []
+
+    def registry(self) -> Any:
+        import libsumo
+        import py_trees
+        from py_trees.common import Status
+
+        from btgen_pytrees.leaves import default_registry
+
+        seen = self.seen
+
+        class Leaf(py_trees.behaviour.Behaviour):
+            def __init__(self, entry: Any, env: Any):
+                super().__init__(entry.name)
+                self.env, self.duration, self.vehicles = env, entry.params["duration"], entry.params.get("vehicles", [])
+
+            def update(self) -> Any:
+                present = set(libsumo.vehicle.getIDList())
+                seen.append({
+                    "now": self.env.now(), "sumo": libsumo.simulation.getTime(), "dt": libsumo.simulation.getDeltaT(),
+                    "lane": {v: libsumo.vehicle.getLaneIndex(v) for v in self.vehicles if v in present},
+                    "leader": {v: libsumo.vehicle.getLeader(v, 1000) for v in self.vehicles if v in present}})
+                return Status.SUCCESS if self.env.now() >= self.duration - 1e-9 else Status.RUNNING
+
+        registry = default_registry()
+        registry.register("probe", Leaf)
+        return registry
+
+    def lanes(self, vid: str) -> list[tuple[float, int]]:
+        return [(s["now"], s["lane"][vid]) for s in self.seen if vid in s["lane"]]
+
+
+def probe(duration: float, *vehicles: str) -> dict[str, Any]:
+    return entry("PROBE", action="probe", duration=duration, vehicles=list(vehicles))
+
+
+def test_a_tick_that_sumo_cannot_step_is_refused_at_load_naming_the_nearest_valid_ticks(
+        tmp_path: pathlib.Path, with_libsumo: None) -> None:  # fmt: skip
+    def tick_problems(tick: float) -> list[str]:
+        path = sumo_case(tmp_path, entry("C1", action="wait"), tick=tick, timeout=5)
+        try:
+            btgen_pytrees.load(path)
+        except btgen_pytrees.InvalidTestCase as exc:
+            return [f"{p.pointer}: {p.message}" for p in exc.problems]
+        return []
+
+    assert tick_problems(0.0125) == ["/tick: SUMO keeps time in whole milliseconds: a tick of 0.0125 s is not one; "
+                                     "the nearest valid ticks are 0.012 and 0.013 s"]  # fmt: skip
+    assert tick_problems(1 / 30) == ["/tick: SUMO keeps time in whole milliseconds: a tick of 0.0333333 s is not one; "
+                                     "the nearest valid ticks are 0.033 and 0.034 s"]  # fmt: skip
+    assert tick_problems(0.0005) == ["/tick: SUMO keeps time in whole milliseconds: a tick of 0.0005 s is below "
+                                     "SUMO's resolution; the smallest valid tick is 0.001 s"]  # fmt: skip
+    for tick in (0.001, 0.01, 0.1, 0.3, 0.7, 1, 2.5):
+        assert tick_problems(tick) == [], tick
+    done = cli("validate", str(sumo_case(tmp_path, entry("C1", action="wait"), tick=0.0125, timeout=5)))
+    assert done.returncode == 2 and "/tick: SUMO keeps time in whole milliseconds" in done.stderr, done
+
+
+@needs_sumo
+def test_the_run_s_clock_is_sumo_s_own_time_on_every_tick(tmp_path: pathlib.Path) -> None:
+    """Even a tick SUMO rounds (only reachable past the loader): every time of the run is SUMO's."""
+    from btgen_pytrees import generate
+    from btgen_pytrees.run import run_tree
+    from btgen_pytrees.systems.sumo import SUMO
+
+    spy = Probe()
+    registry = spy.registry()
+    path = sumo_case(tmp_path, probe(2, "ego"), entry("C1", action="wait", duration=1))
+    loaded = btgen_pytrees.load(path, registry=registry)
+    system = SUMO.create(loaded.system, loaded)
+    system.tick_length = 0.0125  # SUMO steps 13 ms
+    report = run_tree(generate(loaded, registry=registry, clock=system), loaded, system=system)
+    assert report.verdict == "pass", report.message
+    assert spy.seen and all(round(s["dt"], 9) == 0.013 for s in spy.seen)
+    assert [s["now"] for s in spy.seen] == [round(s["sumo"] - s["dt"], 9) for s in spy.seen]  # SUMO's label of the state
+    assert report.trace.times == [s["now"] for s in spy.seen]
+    c1 = report.execute[1]
+    assert (c1.start, c1.end) == (0.0, 1.001)  # 77 steps of 13 ms: the first SUMO time at least 1 s after the start
+
+
+KEEPER = """<routes>
+    <vType id="keeper" length="5" minGap="2.5" maxSpeed="30" accel="2.6" decel="4.5" emergencyDecel="9" sigma="0"
+           lcKeepRight="100"/>
+    <route id="east" edges="A0B0 B0C0"/>
+    <vehicle id="ego" type="keeper" route="east" depart="0" departPos="20" departLane="0" departSpeed="10"/>
+</routes>
+"""
+"""A driver model that wants the right lane (keep right): left to itself, it goes back to lane 0 at once."""
+
+
+def arrived_and_back(lanes: list[tuple[float, int]]) -> tuple[float, float]:
+    """When the vehicle was first on lane 1, and when it was next on lane 0 (libsumo's lane index)."""
+    arrived = next(t for t, lane in lanes if lane == 1)
+    back = next(t for t, lane in lanes if t > arrived and lane == 0)
+    return arrived, back
+
+
+@needs_sumo
+def test_a_lane_change_without_duration_leaves_the_lane_to_the_driver_model_on_arrival(tmp_path: pathlib.Path) -> None:
+    spy = Probe()
+    registry = spy.registry()
+    path = sumo_case(tmp_path, probe(5, "ego"), entry("B1", action="sumo.lane", vehicle="ego", lane=1),
+                     routes=KEEPER)  # fmt: skip
+    report = run(btgen_pytrees.load(path, registry=registry), registry=registry)
+    assert report.verdict == "pass", report.message
+    arrived, back = arrived_and_back(spy.lanes("ego"))
+    assert report.execute[1].end == arrived == 0.1
+    assert back - arrived <= 0.3 + 1e-9  # keep-right takes it back as soon as the test lets go (not after 10.1 s)
+
+
+@needs_sumo
+def test_a_lane_change_with_a_duration_keeps_the_lane_for_that_long_then_lets_go(tmp_path: pathlib.Path) -> None:
+    spy = Probe()
+    registry = spy.registry()
+    path = sumo_case(tmp_path, probe(5, "ego"), entry("B1", action="sumo.lane", vehicle="ego", lane=1, duration=2),
+                     routes=KEEPER)  # fmt: skip
+    run(btgen_pytrees.load(path, registry=registry), registry=registry)
+    arrived, back = arrived_and_back(spy.lanes("ego"))
+    assert arrived == 0.1
+    assert 2 < back - arrived <= 2.3 + 1e-9  # held through the steps up to arrival + 2 s, then keep-right at once
+
+
+@needs_sumo
+def test_release_ends_a_lane_hold_at_once(tmp_path: pathlib.Path) -> None:
+    spy = Probe()
+    registry = spy.registry()
+    path = sumo_case(tmp_path, probe(6, "ego"),
+                     entry("B1", action="sumo.lane", vehicle="ego", lane=1, duration=30),
+                     entry("C1", ["B1"], action="wait", duration=1),
+                     entry("B2", ["C1"], action="sumo.release", vehicle="ego"),
+                     routes=KEEPER)  # fmt: skip
+    report = run(btgen_pytrees.load(path, registry=registry), registry=registry)
+    assert report.verdict == "pass", report.message
+    released = report.execute[3].end
+    lanes = spy.lanes("ego")
+    assert released == pytest.approx(1.1)
+    assert all(lane == 1 for t, lane in lanes if 0.1 <= t <= released)
+    back = next(t for t, lane in lanes if t > released and lane == 0)
+    assert back - released <= 0.3 + 1e-9  # not 30 s later
+
+
+LONG_ROUTES = """<routes>
+    <vType id="car" length="5" minGap="2.5" maxSpeed="30" sigma="0" lcKeepRight="0" lcSpeedGain="0" lcStrategic="-1"/>
+    <route id="east" edges="A0B0"/>
+    <vehicle id="far" type="car" route="east" depart="0" departPos="10" departLane="0" departSpeed="20"/>
+    <vehicle id="farlead" type="car" route="east" depart="0" departPos="2000" departLane="0" departSpeed="20"/>
+    <vehicle id="near" type="car" route="east" depart="0" departPos="10" departLane="1" departSpeed="20"/>
+    <vehicle id="nearlead" type="car" route="east" depart="0" departPos="900" departLane="1" departSpeed="10"/>
+</routes>
+"""
+
+
+@needs_sumo
+def test_a_leader_beyond_the_documented_1000_m_is_no_leader(tmp_path: pathlib.Path) -> None:
+    netgenerate = shutil.which("netgenerate")
+    if netgenerate is None:
+        if os.environ.get("CI"):
+            pytest.fail("netgenerate is missing although CI installs the sumo extra")
+        pytest.skip("netgenerate is not installed (pip install -e '.[sumo]')")
+    subprocess.run([netgenerate, "--grid", "--grid.x-number", "2", "--grid.y-number", "1", "--grid.length", "3000",
+                    "--default.lanenumber", "2", "--default.speed", "30", "--no-turnarounds", "true", "--seed", "1",
+                    "--output-file", str(tmp_path / "long.net.xml")], check=True, capture_output=True, timeout=60)  # fmt: skip
+    spy = Probe()
+    registry = spy.registry()
+    path = sumo_case(tmp_path, probe(1, "far", "near"),
+                     criteria=[crit("R1", "record", "far.gap > 1e308 && far.ttc > 1e308 && near.gap <= 1000")],
+                     routes=LONG_ROUTES)  # fmt: skip
+    (tmp_path / "s.sumocfg").write_text(CONFIG.replace("road.net.xml", "long.net.xml"), encoding="utf-8")
+    report = run(btgen_pytrees.load(path, registry=registry), registry=registry)
+    assert report.verdict == "pass", (report.message, report.oracles)
+    first = spy.seen[0]
+    assert first["leader"]["far"][0] == "farlead" and first["leader"]["far"][1] + 2.5 > 1000  # SUMO sees it ...
+    near_leader = first["leader"]["near"]
+    assert near_leader[0] == "nearlead"
+    samples = dict(report.oracles[0].samples)
+    assert samples[0.0]["near.gap"] == pytest.approx(near_leader[1] + 2.5)  # ... a nearer one is what SUMO says
+    assert report.trace.value_at("far.gap", 0) == math.inf and report.trace.value_at("far.ttc", 0) == math.inf

@@ -23,7 +23,7 @@ from ...expressions import RESERVED
 from ..base import SystemFailure, SystemInfo, SystemSpec
 from . import actions
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
-from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem
+from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, tick_problem
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...leaves.registry import Registry
@@ -79,6 +79,9 @@ class SumoType:
                                     f"{INSTALL_HINT}", "system"))  # fmt: skip
         for index, message in parse_options(list(spec.options))[1]:
             problems.append(Problem(("system", "options", index), message, "system"))
+        tick = tick_problem(case_data.get("tick", 0.1))
+        if tick is not None:
+            problems.append(Problem(("tick",), tick, "system"))
         if not spec.config:
             problems.append(Problem(("system",), "a 'sumo' system needs 'config': a .sumocfg file next to the case", "system"))
             return SystemInfo((), tuple(problems))

@@ -134,17 +134,18 @@ class Lane(SumoAction):
     """``sumo.lane {vehicle, lane, duration = 0, timeout = 10, safe = true}``: change lane.
 
     Succeeds on the first tick the vehicle is on *lane* (index, 0 = rightmost);
-    fails when it is not there after *timeout*. SUMO keeps the vehicle on the
-    lane for *duration* seconds after it arrived. ``safe: false`` lets the change
-    ignore the gaps of other vehicles (lane change mode 0, which also stops the
+    fails when it is not there after *timeout*. The request to SUMO lasts until
+    then: on arrival it is replaced by one that keeps the vehicle on the lane
+    for *duration* seconds (with 0, SUMO's driver model decides again at once),
+    and after a *timeout* it has ended. ``safe: false`` lets the change ignore
+    the gaps of other vehicles (lane change mode 0, which also stops the
     vehicle's own lane changes until ``sumo.release``): a forced cut-in.
     """
 
     def begin(self, system: SumoSystem) -> None:
         vid = self.params["vehicle"]
         if self.need(system, vid):
-            hold = float(self.params.get("timeout", 10)) + float(self.params.get("duration", 0)) + system.tick_length
-            system.change_lane(vid, self.params["lane"], hold, self.params.get("safe", True))
+            system.change_lane(vid, self.params["lane"], float(self.params.get("timeout", 10)), self.params.get("safe", True))
 
     def step(self, system: SumoSystem) -> Status:
         vid, lane = self.params["vehicle"], self.params["lane"]
@@ -153,9 +154,7 @@ class Lane(SumoAction):
             return Status.FAILURE
         now_on = system.lane(vid)
         if now_on == lane:
-            duration = float(self.params.get("duration", 0))
-            if duration > 0:
-                system.change_lane(vid, lane, duration, self.params.get("safe", True))
+            system.change_lane(vid, lane, float(self.params.get("duration", 0)), self.params.get("safe", True))
             self.feedback_message = f"{vid} on lane {lane}"
             return Status.SUCCESS
         timeout = float(self.params.get("timeout", 10))

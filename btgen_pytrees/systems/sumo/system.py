@@ -10,8 +10,11 @@ Time. SUMO executes the step at time 0 inside :meth:`SumoSystem.start`, so
 vehicles that depart at 0 are in the network when the tree first ticks; the
 state the tree sees at run time *t* is SUMO's state after its step at *t* (what
 SUMO's own outputs label *t*), and a command a leaf gives at *t* acts in the
-step at *t + tick*. :meth:`SumoSystem.now` counts steps (``k * tick``), so the
-run's clock is exact and the same as the simulated system's.
+step at *t + tick*. :meth:`SumoSystem.now` is SUMO's own time of that step
+(``simulation.getTime()`` before it), so the run's clock is SUMO's clock and
+nothing else: SUMO keeps time in whole milliseconds, and a case whose tick is
+not a whole number of them is refused when it is loaded (:func:`tick_problem`),
+so SUMO's steps are the case's ticks.
 
 Signals. For every *tracked* vehicle V (declared in the route files with an id
 that is a signal name, or added by ``sumo.spawn``)::
@@ -21,8 +24,8 @@ that is a signal name, or added by ``sumo.spawn``)::
     V.lane      int    lane index, -1 while not in the network
     V.speed     m/s    V.accel  m/s²   V.x, V.y  m   V.lateral  m from the lane centre
     V.distance  m driven since departure
-    V.gap       m bumper to bumper to the leader SUMO sees ahead (inf without one)
-    V.ttc       s to collision with that leader at current speeds (inf when not closing)
+    V.gap       m bumper to bumper to the leader SUMO sees ahead, up to LOOKAHEAD (inf without one)
+    V.ttc       s to collision with that leader at current speeds (inf when not closing or no leader)
 
 and ``sim.collisions`` (collision events so far; a pair in contact over several
 steps counts once) and ``sim.vehicles`` (vehicles in the network). While V is
@@ -53,14 +56,16 @@ from .scenario import Scenario
 if TYPE_CHECKING:  # pragma: no cover
     from ...leaves.environment import Environment
 
-__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT"]
+__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT", "tick_problem",
+           "LOOKAHEAD"]
 
 INSTALL_HINT = "pip install -e '.[sumo]'"
 ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", "ttc", "present", "collided")
 """The signals of each vehicle, ``<vehicle>.<attribute>``."""
 SIM_SIGNALS = ("sim.collisions", "sim.vehicles")
 LOOKAHEAD = 1000.0
-"""Metres ahead in which a vehicle's leader is looked for (``V.gap`` is inf beyond)."""
+"""Metres ahead in which a vehicle's leader counts (``V.gap`` and ``V.ttc`` are inf beyond; SUMO itself
+reports a leader further ahead on the same lane)."""
 
 _ALWAYS = ("present", "collided", "lane")
 _MOTION = ("speed", "accel", "x", "y", "lateral", "distance", "gap", "ttc")
@@ -72,6 +77,32 @@ _VARIABLES = (_SPEED, _ACCEL, _POSITION, _LANE_INDEX, _LATERAL, _DISTANCE)
 
 _active: "SumoSystem | None" = None
 """The simulation libsumo is running in this process, if any."""
+
+
+def tick_problem(tick: Any) -> str | None:
+    """What is wrong with *tick* (s) as SUMO's step length, or ``None``.
+
+    SUMO keeps time in whole milliseconds and rounds ``--step-length`` to them
+    (0.0125 s steps 0.013 s): a tick that is not a whole number of milliseconds
+    would make the case's time and SUMO's disagree. Other problems of the value
+    (not a number, not finite, not positive) are the loader's to report.
+
+    >>> tick_problem(0.1) is None, tick_problem(0.0125)
+    (True, 'SUMO keeps time in whole milliseconds: a tick of 0.0125 s is not one; the nearest valid ticks are 0.012 and 0.013 s')
+    >>> tick_problem(0.0005)
+    "SUMO keeps time in whole milliseconds: a tick of 0.0005 s is below SUMO's resolution; the smallest valid tick is 0.001 s"
+    """
+    if isinstance(tick, bool) or not isinstance(tick, (int, float)) or not math.isfinite(tick) or tick <= 0:
+        return None
+    ms = tick * 1000
+    whole = math.floor(ms + 0.5)
+    if whole >= 1 and abs(ms - whole) <= 1e-9 * ms:
+        return None
+    if ms < 1:
+        return (f"SUMO keeps time in whole milliseconds: a tick of {tick:g} s is below SUMO's resolution; "
+                "the smallest valid tick is 0.001 s")  # fmt: skip
+    return (f"SUMO keeps time in whole milliseconds: a tick of {tick:g} s is not one; the nearest valid ticks are "
+            f"{math.floor(ms) / 1000:g} and {math.ceil(ms) / 1000:g} s")  # fmt: skip
 
 
 def libsumo_module() -> Any:
@@ -115,6 +146,7 @@ class SumoSystem:
         self._tracked = frozenset(self.tracked)
         self.spawns = spawns
         self.steps = 0
+        self.time = 0.0  # SUMO's time of the last step (s)
         self.collisions = 0
         self.collided: set[str] = set()
         self.seen: set[str] = set()
@@ -160,7 +192,8 @@ class SumoSystem:
         self._step()
 
     def now(self) -> float:
-        return round(max(self.steps - 1, 0) * self.tick_length, 9)
+        """SUMO's time of the step whose state the signals show (s; 0.0 before the first step)."""
+        return self.time
 
     def tick(self) -> None:
         self._step()
@@ -196,9 +229,11 @@ class SumoSystem:
 
     def _simulation_step(self, lib: Any) -> None:
         try:
+            time = lib.simulation.getTime()  # the time of the step SUMO executes now, and the label of its state
             lib.simulationStep()
         except Exception as exc:  # noqa: BLE001
             raise SystemFailure(f"SUMO stopped at {self.now():g} s: {exc}") from None
+        self.time = time
 
     def _read(self, lib: Any) -> None:
         vehicle, simulation = lib.vehicle, lib.simulation
@@ -245,8 +280,8 @@ class SumoSystem:
             speed = r[_SPEED]
             x, y = r[_POSITION]
             leader, distance = r[_LEADER] or ("", -1.0)
-            if leader:
-                gap = distance + self.min_gap[vid]
+            gap = distance + self.min_gap[vid] if leader else _INF
+            if gap <= LOOKAHEAD:  # SUMO reports a leader on the same lane however far ahead: none beyond LOOKAHEAD
                 ahead = results.get(leader)
                 closing = speed - (ahead[_SPEED] if ahead is not None else self._lib.vehicle.getSpeed(leader))
                 ttc = 0.0 if gap <= 0 else gap / closing if closing > 0 else _INF
@@ -305,19 +340,30 @@ class SumoSystem:
         self._call(v.setSpeed, vid, max(float(speed), 0.0))
 
     def change_lane(self, vid: str, lane: int, seconds: float, safe: bool) -> None:
+        """Ask SUMO to move *vid* to *lane* and keep it there in its steps of the next *seconds* (none for 0).
+
+        SUMO's request (``vehicle.changeLane``) holds from the step SUMO executes
+        next, at ``now + tick``, to ``now + tick + duration`` inclusive; the
+        duration given is therefore ``seconds - tick``: the steps up to run time
+        ``now + seconds`` are held and the driver model decides again from the
+        step after. ``seconds = 0`` replaces an earlier request by one that has
+        ended before SUMO's next step: the driver model decides at once.
+        """
         self.take_over(vid)
         v = self._lib.vehicle
         if not safe:
             self._call(v.setLaneChangeMode, vid, 0)  # no own lane changes; the request ignores others' gaps
-        self._call(v.changeLane, vid, int(lane), float(seconds))
+        self._call(v.changeLane, vid, int(lane), float(seconds) - self.tick_length)
 
     def release(self, vid: str) -> None:
+        """Give *vid* back to SUMO's driver model: its own speed, its modes, and no lane request any more."""
         v = self._lib.vehicle
         speed_mode, lane_mode = self.taken.pop(vid, (None, None))
         self._call(v.setSpeed, vid, -1.0)
         if speed_mode is not None:
             self._call(v.setSpeedMode, vid, speed_mode)
             self._call(v.setLaneChangeMode, vid, lane_mode)
+        self._call(v.changeLane, vid, self.lane(vid), -self.tick_length)  # a request that ended: the hold is over
 
     def spawn(self, vid: str, route: str, type_id: str | None, lane: int | None, position: float | None,
               speed: float | None) -> None:  # fmt: skip

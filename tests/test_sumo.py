@@ -754,3 +754,26 @@ def test_a_leader_beyond_the_documented_1000_m_is_no_leader(tmp_path: pathlib.Pa
     samples = dict(report.oracles[0].samples)
     assert samples[0.0]["near.gap"] == pytest.approx(near_leader[1] + 2.5)  # ... a nearer one is what SUMO says
     assert report.trace.value_at("far.gap", 0) == math.inf and report.trace.value_at("far.ttc", 0) == math.inf
+
+
+@needs_sumo
+def test_a_vehicle_that_left_ends_its_signals_in_the_trace_when_libsumo_stops_listing_it(tmp_path: pathlib.Path) -> None:
+    routes = SCENARIO.replace('<vehicle id="ego" type="car" route="east" depart="0" departPos="20"',
+                              '<vehicle id="ego" type="car" route="short" depart="0" departPos="440"')  # fmt: skip
+    spy = Probe()
+    registry = spy.registry()
+    path = sumo_case(tmp_path, probe(8, "ego"), criteria=[crit("F1", "final", "ego.speed >= 0", at=8)], routes=routes)
+    report = run(btgen_pytrees.load(path, registry=registry), registry=registry)
+    assert report.oracles[0].message == "signal 'ego.speed' has no value at 8 s"
+    gone = next(s["now"] for s in spy.seen if "ego" not in s["lane"])  # libsumo no longer lists it
+    trace = report.trace
+    k = trace.times.index(gone)
+    motion = ("speed", "accel", "x", "y", "lateral", "distance", "gap", "ttc")
+    for attribute in motion:
+        assert trace.value_at(f"ego.{attribute}", k - 1) is not None and trace.value_at(f"ego.{attribute}", k) is None
+    assert trace.value_at("ego.present", k) is False and trace.value_at("ego.lane", k) == -1
+    from btgen_pytrees.run.trace import ENDED
+
+    for attribute in motion:
+        ticks, values = trace.signals[f"ego.{attribute}"]
+        assert (ticks[-1], values[-1]) == (k, ENDED), attribute  # ended on that tick, not held on

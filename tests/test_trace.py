@@ -336,3 +336,76 @@ def test_a_tree_halted_by_a_host_composite_during_a_tick_is_recorded() -> None:
     assert statuses[1] == ["running"] * 4 and statuses[2] == ["invalid"] * 4
     for k, expected in enumerate(statuses):
         assert recorder.trace.statuses_at(k) == expected, k
+
+
+class Passing:
+    """A system owning ``car.speed``: the car is there on ticks 2-4 and 7-8 (speed = tick) and gone otherwise,
+    as a vehicle that enters, leaves and comes back: while it is gone the signal has no value."""
+
+    def __init__(self, tick: float):
+        self.k, self.step = 0, tick
+
+    def start(self, env: Any) -> None:
+        self.key = env.namespace + "/signals/car.speed"
+
+    def now(self) -> float:
+        return round(self.k * self.step, 9)
+
+    def publish(self, env: Any) -> None:
+        if 2 <= self.k <= 4 or 7 <= self.k <= 8:
+            env.publish("car.speed", float(self.k))
+        else:
+            Blackboard.storage.pop(self.key, None)
+
+    def tick(self) -> None:
+        self.k += 1
+
+    def close(self) -> None:
+        pass
+
+
+class PassingType:
+    name = "passing"
+    options = ()
+
+    def describe(self, spec: Any, case_data: Any) -> Any:
+        from btgen_pytrees.systems import SystemInfo
+
+        return SystemInfo(signals=("car.speed",))
+
+    def create(self, spec: Any, case: Any) -> Passing:
+        return Passing(case.tick)
+
+
+def test_a_signal_that_stops_existing_ends_in_the_trace_and_in_every_view() -> None:
+    """Not the last value held on (what the trace did): no value, as the oracles see it, until it comes back."""
+    import math
+
+    from btgen_pytrees.run.plot import _signal_series
+    from btgen_pytrees.run.replay import _page_data
+
+    registry = default_registry()
+    registry.register_system(PassingType())
+    data = case(entry("W", action="wait", duration=1), criteria=[crit("F", "final", "car.speed >= 0", at=1)],
+                system={"type": "passing"}, tick=0.1, timeout=2)  # fmt: skip
+    report = run(btgen_pytrees.load(data, registry=registry), registry=registry)
+    trace = report.trace
+    assert report.oracles[0].message == "signal 'car.speed' has no value at 1 s"  # the oracle: no value ...
+    assert [trace.value_at("car.speed", k) for k in range(11)] == [None, None, 2.0, 3.0, 4.0, None, None, 7.0, 8.0,
+                                                                    None, None]  # fmt: skip  ... and the trace
+    from btgen_pytrees.run.trace import ENDED
+
+    assert trace.series("car.speed") == [(0.2, 2.0), (0.3, 3.0), (0.4, 4.0), (0.5, ENDED), (0.7, 7.0), (0.8, 8.0),
+                                         (0.9, ENDED)]  # fmt: skip
+    assert trace.to_data()["signals"]["car.speed"] == [[2, 2.0], [3, 3.0], [4, 4.0], [5], [7, 7.0], [8, 8.0], [9]]
+    loaded = btgen_pytrees.load(data, registry=registry)
+    page = _page_data(report, loaded, trace, [], [], None)
+    assert page["signals"]["car.speed"] == [[2, 2.0], [3, 3.0], [4, 4.0], [5], [7, 7.0], [8, 8.0], [9]]
+    drawn = _signal_series(report)["car.speed"]
+    assert [(t, v) for t, v in drawn if not math.isnan(v)] == [(0.2, 2.0), (0.3, 3.0), (0.4, 4.0), (0.7, 7.0), (0.8, 8.0)]
+    assert [t for t, v in drawn if math.isnan(v)] == [0.5, 0.9]  # the line stops there
+    import copy
+    import pickle
+
+    assert pickle.loads(pickle.dumps(trace)).series("car.speed") == trace.series("car.speed")  # ENDED stays ENDED
+    assert copy.deepcopy(ENDED) is ENDED

@@ -42,6 +42,7 @@ from ..expressions import bounds
 from ..model import TestCase
 from .export import ordered_signals, select
 from .report import Report
+from .trace import ENDED
 
 if TYPE_CHECKING:  # pragma: no cover - types only
     from matplotlib.axes import Axes
@@ -347,14 +348,16 @@ def _signal_series(report: Report) -> dict[str, list[tuple[float, float]]]:
 
     Drawn from the run's trace; a report without one (made by hand) falls back
     to what its oracles read. Values that are not numbers (strings, lists) are
-    left out; booleans are 0/1.
+    left out; booleans are 0/1. Where a signal ended (:data:`~.trace.ENDED`) the
+    point is NaN: its line stops there, until it has a value again.
     """
     trace = report.trace
     if trace is not None:
         series = {}
         for name in sorted(trace.signals):
-            points = [(t, float(v)) for t, v in trace.series(name) if isinstance(v, (bool, int, float))]
-            if points:
+            points = [(t, math.nan if v is ENDED else float(v)) for t, v in trace.series(name)
+                      if v is ENDED or isinstance(v, (bool, int, float))]  # fmt: skip
+            if any(not math.isnan(v) for _, v in points):
                 series[name] = points
         return series
     samples: dict[str, dict[float, float]] = {}

@@ -42,7 +42,7 @@ from ..model import TestCase
 from ..render.dot import GraphvizMissing, dot_graph, graphviz_render
 from ..render.info import walk
 from .report import Report
-from .trace import RunTrace
+from .trace import ENDED, RunTrace
 
 __all__ = ["replay_html", "auto_depth", "require_graphviz", "MAX_NODES"]
 
@@ -108,8 +108,8 @@ def _page_data(report: Report, case: TestCase, trace: RunTrace | None, graph_of:
         "graph": graph_of,
         "graphNames": names,
         "transitions": trace.to_data()["transitions"] if trace is not None else [],
-        "signals": {name: [[k, _value(v)] for k, v in zip(*trace.signals[name])] for name in sorted(trace.signals)}
-        if trace is not None else {},  # fmt: skip
+        "signals": {name: [[k] if v is ENDED else [k, _value(v)] for k, v in zip(*trace.signals[name])]  # [k]: ended
+                    for name in sorted(trace.signals)} if trace is not None else {},  # fmt: skip
         "oracles": [{"id": o.id, "type": o.type, "expect": o.expect, "verdict": o.verdict, "at": o.at,
                      "message": o.message, "node": index.get(o.id, -1)} for o in report.oracles],  # fmt: skip
         "execute": [{"id": e.id, "kind": e.kind, "status": e.status, "start": e.start, "end": e.end,
@@ -305,23 +305,35 @@ _SCRIPT = r"""
     tr.appendChild(value);
     const curveCell = el("td");
     tr.appendChild(curveCell);
-    const numeric = series.filter(([, v]) => typeof v === "number" || typeof v === "boolean");
+    const isNumber = (item) => item.length > 1 && (typeof item[1] === "number" || typeof item[1] === "boolean");
+    const numeric = series.filter(isNumber);
     let cursorLine = null;
     if (numeric.length) {
       const ys = numeric.map(([, v]) => Number(v));
       const lo = Math.min(...ys), hi = Math.max(...ys), dy = hi - lo || 1;
       const x = (k) => 2 + (W - 4) * (times[k] / span), y = (v) => H - 3 - (H - 6) * ((Number(v) - lo) / dy);
-      const pts = [];
-      numeric.forEach(([k, v], j) => {
-        if (j) pts.push(x(k) + "," + y(numeric[j - 1][1]));
-        pts.push(x(k) + "," + y(v));
+      const lines = [];  // one line per stretch with a value: where the signal ended ([tick], no value) its line stops
+      let pts = [], prev = null;
+      series.forEach((item) => {
+        const k = item[0];
+        if (item.length < 2) {
+          if (prev !== null) { pts.push(x(k) + "," + y(prev)); lines.push(pts); }
+          pts = []; prev = null;
+          return;
+        }
+        if (!isNumber(item)) return;
+        if (prev !== null) pts.push(x(k) + "," + y(prev));
+        pts.push(x(k) + "," + y(item[1]));
+        prev = item[1];
       });
-      pts.push((W - 2) + "," + y(numeric[numeric.length - 1][1]));
+      if (prev !== null) { pts.push((W - 2) + "," + y(prev)); lines.push(pts); }
       const svg = document.createElementNS(NS, "svg");
       svg.setAttribute("class", "curve"); svg.setAttribute("width", W); svg.setAttribute("height", H);
-      const line = document.createElementNS(NS, "polyline");
-      line.setAttribute("points", pts.join(" "));
-      svg.appendChild(line);
+      for (const points of lines) {
+        const line = document.createElementNS(NS, "polyline");
+        line.setAttribute("points", points.join(" "));
+        svg.appendChild(line);
+      }
       const title = document.createElementNS(NS, "title");
       title.textContent = name + ": " + fmt(lo) + " \u2026 " + fmt(hi);
       svg.appendChild(title);

@@ -22,6 +22,11 @@ time ``times[k]``):
   (``1`` and ``1.0`` and ``True`` count as different values). New keys are
   found when the blackboard grows (a dict keeps insertion order, so they are
   at its end); after a signal key went away every key is looked at again.
+  **A signal that stops existing ends**: when its key is gone from the
+  blackboard after a tick (SUMO's ``V.speed`` once ``V`` has left the
+  network), the change recorded is :data:`ENDED` - no value from that tick
+  on, as the oracles see it, never the last value held on - until it has a
+  value again.
 
 What is not recorded: the halt the runner sends after the last tick of a run
 that timed out or erred (the trace shows the tree as it was on its last tick).
@@ -58,7 +63,7 @@ from ..leaves.wiring import TreeRoot, WakingParallel
 from ..render.info import role_of
 from .index import TreeIndex
 
-__all__ = ["RunTrace", "TraceNode", "TraceRecorder", "STATUSES", "DEFAULT_LIMIT"]
+__all__ = ["RunTrace", "TraceNode", "TraceRecorder", "STATUSES", "DEFAULT_LIMIT", "ENDED"]
 
 STATUSES = ("invalid", "running", "success", "failure")
 """Status names by code; the codes are BehaviorTree.CPP's (IDLE, RUNNING, SUCCESS, FAILURE)."""
@@ -93,6 +98,28 @@ def _kind(node: py_trees.behaviour.Behaviour) -> int:
 
 DEFAULT_LIMIT = 2_000_000
 """Changes (status and signal) a trace keeps before it stops recording."""
+
+
+class _Ended:
+    """The type of :data:`ENDED` (one instance; copies and pickles are that instance)."""
+
+    _one: "_Ended | None" = None
+
+    def __new__(cls) -> "_Ended":
+        if cls._one is None:
+            cls._one = super().__new__(cls)
+        return cls._one
+
+    def __repr__(self) -> str:
+        return "ENDED"
+
+    def __reduce__(self) -> str:
+        return "ENDED"  # pickled by name: this module's ENDED
+
+
+ENDED = _Ended()
+"""The value a signal's change has when the signal stopped existing (its key left the blackboard):
+from that tick on it has no value (:meth:`RunTrace.value_at` gives ``None``), until it gets one again."""
 
 _SCALARS = (bool, int, float, str, type(None))
 
@@ -191,6 +218,7 @@ class RunTrace:
         ticks, nodes_changed, statuses: the status changes, as three parallel
             arrays (tick, node index, status code; see :data:`STATUSES`)
         signals: per signal, the ticks at which its value changed and the values
+            (:data:`ENDED` where it stopped having one)
         truncated: the first tick from which changes were dropped (``None``: complete)
         limit: the cap on changes
     """
@@ -232,17 +260,17 @@ class RunTrace:
         return self.statuses_at(tick)[node]
 
     def value_at(self, signal: str, tick: int) -> Any:
-        """The value of *signal* at the end of *tick* (``None`` before it had one)."""
+        """The value of *signal* at the end of *tick* (``None`` while it has none: before its first, after it ended)."""
         ticks, values = self.signals[signal]
         value = None
         for k, v in zip(ticks, values):
             if k > tick:
                 break
             value = v
-        return value
+        return None if value is ENDED else value
 
     def series(self, signal: str) -> list[tuple[float, Any]]:
-        """``(time, value)`` each time *signal* changed."""
+        """``(time, value)`` each time *signal* changed; the value is :data:`ENDED` where it stopped existing."""
         ticks, values = self.signals[signal]
         return [(self.times[k], v) for k, v in zip(ticks, values)]
 
@@ -253,7 +281,8 @@ class RunTrace:
         """The trace as compact JSON-ready data (the replay page's input).
 
         ``transitions`` is one flat list ``[tick, node, code, tick, node, code, ...]``;
-        ``signals`` maps each name (sorted) to ``[[tick, value], ...]``.
+        ``signals`` maps each name (sorted) to ``[[tick, value], ...]``, with ``[tick]`` (no
+        value) where the signal ended.
         """
         flat: list[int] = []
         for k, i, s in zip(self.ticks, self.nodes_changed, self.statuses):
@@ -263,7 +292,8 @@ class RunTrace:
             "nodes": [[n.name, n.role, n.id, n.parent, n.depth] for n in self.nodes],
             "statuses": list(STATUSES),
             "transitions": flat,
-            "signals": {name: [[k, v] for k, v in zip(*self.signals[name])] for name in sorted(self.signals)},
+            "signals": {name: [[k] if v is ENDED else [k, v] for k, v in zip(*self.signals[name])]
+                        for name in sorted(self.signals)},
             "truncated": self.truncated,
         }
 
@@ -444,14 +474,16 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         missing = object()
         for key, name in self._keys.items():
             value = storage.get(key, missing)
-            if value is missing:
-                continue
             last = self._values.get(name, missing)
-            if last is not missing and _same(value, last):
+            if value is missing:
+                if last is missing or last is ENDED:
+                    continue
+                value = ENDED  # it had a value and has none now: it ended (not: it kept its last value)
+            elif last is not missing and _same(value, last):
                 continue
             if not self._room():
                 return
-            if not isinstance(value, _SCALARS):
+            if not isinstance(value, _SCALARS) and value is not ENDED:
                 value = copy.deepcopy(value)  # a list changed in place later must not change the record
             self._values[name] = value
             ticks, values = self.trace.signals.setdefault(name, (array("L"), []))

@@ -401,6 +401,11 @@ def test_a_signal_that_stops_existing_ends_in_the_trace_and_in_every_view() -> N
     loaded = btgen_pytrees.load(data, registry=registry)
     page = _page_data(report, loaded, trace, [], [], None)
     assert page["signals"]["car.speed"] == [[2, 2.0], [3, 3.0], [4, 4.0], [5], [7, 7.0], [8, 8.0], [9]]
+    from btgen_pytrees.run.export import signal_table
+
+    columns, rows = signal_table(report, loaded)
+    assert [row[columns.index("car.speed")] for row in rows] == [None, None, 2.0, 3.0, 4.0, None, None, 7.0, 8.0,
+                                                                  None, None]  # fmt: skip
     drawn = _signal_series(report)["car.speed"]
     assert [(t, v) for t, v in drawn if not math.isnan(v)] == [(0.2, 2.0), (0.3, 3.0), (0.4, 4.0), (0.7, 7.0), (0.8, 8.0)]
     assert [t for t, v in drawn if math.isnan(v)] == [0.5, 0.9]  # the line stops there

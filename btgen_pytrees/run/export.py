@@ -43,7 +43,7 @@ from typing import Any, Iterable, Sequence
 
 from ..model import TestCase
 from .report import Report
-from .trace import STATUSES
+from .trace import ENDED, STATUSES
 
 __all__ = ["ordered_signals", "read_by", "select", "signal_table", "table_bytes", "export_format",
            "require_pyarrow", "ExportUnavailable", "SUFFIXES"]  # fmt: skip
@@ -139,7 +139,7 @@ def signal_table(report: Report, case: TestCase, patterns: Sequence[str] | None 
             while at[j] < len(ticks) and ticks[at[j]] <= k:
                 current[j] = values[at[j]]
                 at[j] += 1
-            row.append(None if current[j] is missing else current[j])
+            row.append(None if current[j] is missing or current[j] is ENDED else current[j])  # ENDED: it left
         row += [STATUSES[codes[i]] if i >= 0 else None for i in watched]
         rows.append(row)
     return columns, rows

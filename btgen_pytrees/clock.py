@@ -2,11 +2,13 @@
 
 A generated tree never sleeps and never calls :func:`time.time` directly: every
 leaf asks the :class:`~btgen_pytrees.leaves.environment.Environment` for the
-time, and the environment asks its clock. Two clocks cover the two ways a tree
-is ticked:
+time, and the environment asks its clock - once per tick, when the tree's root
+begins the tick, so every node of a tick sees one time. Two clocks cover the
+two ways a tree is ticked:
 
-* :class:`VirtualClock` - the simulator (``btgen_pytrees.run``) sets the time
-  before each tick (tick *k* happens at ``k * tick``), so runs are fast and
+* :class:`VirtualClock` - moves only when set. The runner (``btgen_pytrees.run``)
+  sets it to the system's time (``system.now()``) before each tick: with the
+  simulated system tick *k* happens at ``k * tick``, so runs are fast and
   reproducible to the byte.
 * :class:`WallClock` - the default of :func:`btgen_pytrees.generate`, for a host
   application that ticks the tree itself at its own pace.

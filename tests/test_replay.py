@@ -231,3 +231,68 @@ def test_readme_shows_the_replay_page() -> None:
     assert "docs/images/fig1-replay.png" in readme
     png = (ROOT / "docs" / "images" / "fig1-replay.png").read_bytes()
     assert_not_blank(png)
+
+
+class _Passing:
+    """A system owning ``car.speed`` (= the tick) on ticks 2-4 and 7-8 only: a vehicle that leaves and comes back."""
+
+    def __init__(self) -> None:
+        self.k = 0
+
+    def start(self, env: Any) -> None:
+        self.key = env.namespace + "/signals/car.speed"
+
+    def now(self) -> float:
+        return round(self.k * 0.1, 9)
+
+    def publish(self, env: Any) -> None:
+        if 2 <= self.k <= 4 or 7 <= self.k <= 8:
+            env.publish("car.speed", float(self.k))
+        else:
+            py_trees.blackboard.Blackboard.storage.pop(self.key, None)
+
+    def tick(self) -> None:
+        self.k += 1
+
+    def close(self) -> None:
+        pass
+
+
+class _PassingType:
+    name = "passing"
+    options = ()
+
+    def describe(self, spec: Any, case_data: Any) -> Any:
+        from btgen_pytrees.systems import SystemInfo
+
+        return SystemInfo(signals=("car.speed",))
+
+    def create(self, spec: Any, case: Any) -> _Passing:
+        return _Passing()
+
+
+@needs_dot
+@needs_chromium
+def test_browser_a_signal_that_ended_has_no_value_and_its_curve_a_gap(tmp_path: pathlib.Path) -> None:
+    from selenium.webdriver.common.keys import Keys
+
+    registry = default_registry()
+    registry.register_system(_PassingType())
+    data = case(entry("W", action="wait", duration=1), system={"type": "passing"}, tick=0.1, timeout=2)
+    page, report, _ = page_of(data, registry)
+    assert embedded(page)["signals"]["car.speed"] == [[2, 2.0], [3, 3.0], [4, 4.0], [5], [7, 7.0], [8, 8.0], [9]]
+    path = tmp_path / "ended.html"
+    path.write_text(page, encoding="utf-8")
+    with chromium() as driver:
+        driver.get(path.as_uri())
+        assert driver.execute_script("return document.body.dataset.ready") == "1"
+        lines = driver.execute_script(
+            "return document.querySelectorAll('#signals tr[data-signal=\"car.speed\"] polyline').length")
+        assert lines == 2  # two stretches with a value, nothing drawn where the car was gone
+        body = driver.find_element("tag name", "body")
+        body.send_keys(Keys.HOME)
+        shown = []
+        for _ in range(10):
+            shown.append(page_status(driver)["signals"]["car.speed"])
+            body.send_keys(Keys.ARROW_RIGHT)
+        assert shown == ["\u2014", "\u2014", "2", "3", "4", "\u2014", "\u2014", "7", "8", "\u2014"]

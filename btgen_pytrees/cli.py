@@ -361,17 +361,10 @@ def _system(args: argparse.Namespace) -> SystemSpec | None:
 
 
 def _replay_check(args: argparse.Namespace) -> None:
-    """--replay needs Graphviz, --btlog a .btlog name: found out before the run, not after it."""
+    """--replay/--btlog need a file name, --btlog a .btlog one: found out before the run, not after it."""
     for option in ("replay", "btlog"):
         if getattr(args, option) == "-":  # stdout carries the verdict table
             raise UsageError(f"--{option} -: give a file name (stdout carries the verdict table)")
-    if args.replay:
-        from .run.replay import require_graphviz
-
-        try:
-            require_graphviz()
-        except GraphvizMissing as missing:
-            raise UsageError(str(missing)) from None
     if args.btlog and os.path.splitext(args.btlog)[1].lower() != ".btlog" and not is_direct(args.btlog):
         raise UsageError(f"--btlog {args.btlog}: the file name must end in .btlog (Groot2 opens only those)")
 
@@ -400,7 +393,8 @@ def _replay_outputs(args: argparse.Namespace, report: Report, case: TestCase, re
 
     outputs = []
     if args.replay:
-        outputs.append((args.replay, replay_html(report, case, generate(case, registry=registry), max_depth=args.max_depth)))
+        outputs.append((args.replay, replay_html(report, case, generate(case, registry=registry), max_depth=args.max_depth,
+                                                 signals=args.signals)))  # fmt: skip
     if args.btlog:
         outputs.append((args.btlog, btlog_bytes(report.trace, logged)))
     return outputs
@@ -598,10 +592,10 @@ def _parser() -> argparse.ArgumentParser:
                      help="print a line per entry start/success/failure/stopped on stderr (docs/semantics.md#the-trace)")
     run.add_argument("--system", metavar="TYPE[:CONFIG]", help="run against this system instead of the case's own (CONFIG relative to the current directory); checked like the case's 'system'")
     run.add_argument("--plot", metavar="PATH", help="draw the run (timeline, oracles, signals) to PATH: .svg, .png or .html; several files: svg, png or html, one per file in --out-dir; needs the 'plot' extra")
-    run.add_argument("--replay", metavar="PATH", help="write a replay page of the run to PATH: one self-contained HTML file (tree, time slider, statuses, signals, verdicts); needs Graphviz")
+    run.add_argument("--replay", metavar="PATH", help="write a replay page of the run to PATH: one self-contained HTML file (tree, time slider, statuses, signals, verdicts, a SUMO run's scene)")
     run.add_argument("--signals", action="append", metavar="PATTERN", help="draw/export only the signals matching this glob (repeatable: ego.*, *.speed); for --plot, --replay, --signals-out")
     run.add_argument("--signals-out", metavar="PATH", help="write every signal on every tick, and every entry's and criterion's status, as a table: .csv, or .parquet (needs pyarrow: the 'parquet' extra)")
-    run.add_argument("--max-depth", type=_non_negative, metavar="N", help="--replay: draw nodes down to depth N only (default: collapse deep subtrees of trees over 400 nodes)")
+    run.add_argument("--max-depth", type=_non_negative, metavar="N", help="--replay: open with the subtrees below depth N collapsed (default: a tree over 100 nodes opens breadth first)")
     run.add_argument("--max-work", type=_positive, default=MAX_WORK, metavar="N",
                      help=f"work budget of a run: ticks x (entries + criteria + 10), default {MAX_WORK:.0e}; a case over it is refused before running")  # fmt: skip
     run.add_argument("--btlog", metavar="PATH", help="write the run as a BehaviorTree.CPP .btlog (FileLogger2) for Groot2")

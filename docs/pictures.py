@@ -75,8 +75,8 @@ def replays() -> None:
     from browser import make_screenshot  # tests/browser.py: Debian's chromium through selenium
 
     make_screenshot(str(ROOT / "examples" / "fig1_failing.json"), str(IMAGES / "fig1-replay.png"), tick=12)
-    make_screenshot(str(ROOT / "examples" / "sumo" / "cut_in.json"), str(IMAGES / "cut_in-replay.png"), tick=39)
-    make_screenshot(timeline_case(), str(IMAGES / "timeline_500-replay.png"), tick=40)
+    make_screenshot(str(ROOT / "examples" / "sumo" / "cut_in.json"), str(IMAGES / "cut_in-replay.png"), tick=38)
+    make_screenshot(timeline_case(), str(IMAGES / "timeline_500-replay.png"), tick=40, search="E99_3")
     print("docs/images/fig1-replay.png, cut_in-replay.png, timeline_500-replay.png")
 
 

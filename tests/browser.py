@@ -4,9 +4,8 @@ Chromium and its driver come from Debian packages (``apt-get install chromium
 chromium-driver``; ``.ci/run`` installs them); selenium drives them. Both paths
 are given explicitly, so selenium-manager never tries to download a browser.
 
-Run as a script to remake the README picture::
-
-    python tests/browser.py docs/images/fig1-replay.png
+The README's and docs/views.md's screenshots of the page are made by
+``python docs/pictures.py replay`` through :func:`make_screenshot`.
 """
 
 from __future__ import annotations
@@ -14,7 +13,6 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
-import sys
 import tempfile
 from typing import Any, Iterator
 
@@ -55,8 +53,9 @@ def chromium() -> Iterator[Any]:
         shutil.rmtree(profile, ignore_errors=True)
 
 
-def make_screenshot(case_path: str, png: str, tick: int = 12) -> None:
-    """Run *case_path*, write its replay page, open it, step to *tick* with the keyboard and save a screenshot."""
+def make_screenshot(case_path: Any, png: str, tick: int = 12, search: str = "") -> None:
+    """Run *case_path* (a file or a case dict), write its replay page, open it, step to *tick* with the
+    keyboard (and find *search* in the tree) and save a screenshot."""
     import pathlib
 
     import btgen_pytrees
@@ -73,11 +72,7 @@ def make_screenshot(case_path: str, png: str, tick: int = 12) -> None:
         body.send_keys("\ue011")  # Home: tick 0
         for _ in range(tick):
             body.send_keys("\ue014")  # →
+        if search:
+            driver.find_element("id", "search").send_keys(search + "\ue007")  # Enter
         driver.save_screenshot(png)
     shutil.rmtree(page.parent, ignore_errors=True)
-
-
-if __name__ == "__main__":
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    make_screenshot(os.path.join(root, "examples", "fig1_failing.json"),
-                    sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "docs", "images", "fig1-replay.png"))  # fmt: skip

@@ -4,8 +4,10 @@ The page is checked as text (self-contained, everything escaped, its data the
 run's trace), and in headless Chromium (Debian's ``chromium`` +
 ``chromium-driver``, driven by selenium): the slider and the arrow keys move
 through the ticks, and the status of a node and the value of a signal on the
-page change exactly as the trace says; a screenshot is not blank. Graphviz and
-Chromium tests skip only outside CI (``.ci/run`` installs both).
+page change exactly as the trace says; a screenshot is not blank. The page
+needs no Graphviz (the tests hide ``dot``). Chromium tests skip only outside
+CI (``.ci/run`` installs it). Zoom, collapse, search and the SUMO scene:
+tests/test_replay_views.py.
 """
 
 from __future__ import annotations
@@ -32,8 +34,6 @@ from btgen_pytrees.run.replay import MAX_NODES, auto_depth, replay_html
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAILING = str(ROOT / "examples" / "fig1_failing.json")
-needs_dot = pytest.mark.skipif(shutil.which("dot") is None and not os.environ.get("CI"),
-                               reason="Graphviz's dot is not installed (CI installs it)")  # fmt: skip
 needs_chromium = pytest.mark.skipif(not chromium_present() and not os.environ.get("CI"),
                                     reason="chromium, chromium-driver or selenium missing (CI installs them)")  # fmt: skip
 HOSTILE = "</script><script>window.pwned=1</script>\x01<!--"
@@ -51,7 +51,6 @@ def embedded(page: str) -> dict[str, Any]:
     return json.loads(match.group(1))  # type: ignore[no-any-return]
 
 
-@needs_dot
 def test_page_is_self_contained_and_its_data_is_the_trace() -> None:
     page, report, _ = page_of(FAILING)
     assert page.startswith("<!DOCTYPE html>")
@@ -63,7 +62,8 @@ def test_page_is_self_contained_and_its_data_is_the_trace() -> None:
     assert data["signals"]["speed"] == [[k, v] for k, v in zip(*trace.signals["speed"])]
     assert data["verdict"] == "fail" and data["oracles"][0]["message"] == report.oracles[0].message
     assert data["message"] == report.message and data["explanation"] == list(getattr(report, "explanation", []))
-    assert len(data["graph"]) == len(trace.nodes) and data["collapsedBelow"] is None
+    assert len(data["nodes"]) == len(trace.nodes) and data["collapsedBelow"] is None
+    assert [row[4] for row in data["nodes"]] == [n.id for n in trace.nodes]  # node i of the page is node i of the trace
 
 
 class Shout(py_trees.behaviour.Behaviour):
@@ -79,7 +79,6 @@ class Shout(py_trees.behaviour.Behaviour):
         return py_trees.common.Status.FAILURE
 
 
-@needs_dot
 def test_every_text_is_escaped() -> None:
     """A test, entry, criterion and signal value may hold anything: nothing becomes markup or ends a script."""
     registry = default_registry()
@@ -89,8 +88,8 @@ def test_every_text_is_escaped() -> None:
     page, report, _ = page_of(data, registry)
     assert report.verdict == "fail" and HOSTILE in report.message
     assert page.count("<script") == 2 and page.count("</script>") == 2  # the data block and the page's script
-    assert page.count("<!--") == page.count("-->")  # only Graphviz's own comments
-    assert "\x01" not in page  # the raw control character: nowhere (JSON escapes it, Graphviz drops it)
+    assert "<!--" not in page.replace("\\u003c!--", "")  # no comment opens anywhere (the data escapes every <)
+    assert "\x01" not in page  # the raw control character: nowhere (JSON escapes it)
     assert "<title>&lt;/script&gt;&lt;script&gt;window.pwned=1&lt;/script&gt;\\x01&lt;!--: fail" in page
     values = embedded(page)
     assert values["test"] == HOSTILE and values["signals"]["x"] == [[0, HOSTILE]]
@@ -107,18 +106,14 @@ def test_auto_depth_keeps_the_picture_small() -> None:
     assert auto_depth(fig1) is None
 
 
-@needs_dot
-def test_cli_replay_and_graphviz_hint(tmp_path: pathlib.Path, capsys: Any, monkeypatch: Any) -> None:
+def test_cli_replay_needs_no_graphviz(tmp_path: pathlib.Path, capsys: Any, monkeypatch: Any) -> None:
+    """Issue 23 item 6: --replay works after pip install alone; before, it exited 2 without Graphviz's dot."""
+    monkeypatch.setenv("PATH", str(tmp_path))  # no dot, nothing else either
+    assert shutil.which("dot") is None
     out = tmp_path / "run.html"
     assert main(["run", FAILING, "--replay", str(out)]) == 1  # the verdict's exit code
-    assert "fig1_failing" in out.read_text(encoding="utf-8")
-    capsys.readouterr()
-    monkeypatch.setenv("PATH", str(tmp_path))  # no dot
-    again = tmp_path / "again.html"
-    assert main(["run", FAILING, "--replay", str(again)]) == 2
-    captured = capsys.readouterr()
-    assert captured.out == "" and captured.err.count("\n") == 1 and "--replay needs Graphviz's 'dot'" in captured.err
-    assert not again.exists()
+    page = out.read_text(encoding="utf-8")
+    assert "fig1_failing" in page and "<svg" in page and len(embedded(page)["nodes"]) == 27
 
 
 # -- in the browser -----------------------------------------------------------------------------------
@@ -127,7 +122,7 @@ def test_cli_replay_and_graphviz_hint(tmp_path: pathlib.Path, capsys: Any, monke
 def page_status(driver: Any) -> dict[str, Any]:
     return driver.execute_script("""
         const out = {tick: Number(document.body.dataset.tick), nodes: {}, signals: {}, oracles: {}};
-        for (const g of document.querySelectorAll('#tree g.node[data-graph-node]')) out.nodes[g.dataset.graphNode] = g.dataset.status;
+        for (const g of document.querySelectorAll('#tree g.node[data-node]')) out.nodes['n' + g.dataset.node] = g.dataset.status;
         for (const tr of document.querySelectorAll('#signals tr[data-signal]')) out.signals[tr.dataset.signal] = tr.children[1].textContent;
         for (const tr of document.querySelectorAll('#oracles tr[data-criterion]')) out.oracles[tr.dataset.criterion] = tr.children[2].textContent;
         return out;""")  # fmt: skip
@@ -144,7 +139,6 @@ def expected_at(report: Any, k: int) -> dict[str, Any]:
             "signals": {name: shown(trace.value_at(name, k)) for name in trace.signals}}  # fmt: skip
 
 
-@needs_dot
 @needs_chromium
 def test_browser_slider_and_keys_follow_the_trace(tmp_path: pathlib.Path) -> None:
     from selenium.webdriver.common.action_chains import ActionChains
@@ -192,7 +186,6 @@ def test_browser_slider_and_keys_follow_the_trace(tmp_path: pathlib.Path) -> Non
     assert_not_blank(png)
 
 
-@needs_dot
 @needs_chromium
 def test_browser_opens_a_2000_entry_case(tmp_path: pathlib.Path) -> None:
     big = case(*[entry(f"E{i}", [f"E{i - 1}"] if i % 4 else [], action="ramp", signal=f"s{i % 7}", to=i, duration=0.2)
@@ -203,10 +196,11 @@ def test_browser_opens_a_2000_entry_case(tmp_path: pathlib.Path) -> None:
     path.write_bytes(replay_html(report, loaded, btgen_pytrees.generate(loaded)))
     assert path.stat().st_size < 4_000_000
     data = embedded(path.read_text(encoding="utf-8"))
-    assert data["collapsedBelow"] is not None and len(data["graphNames"]) <= MAX_NODES + MAX_NODES
+    assert data["collapsedBelow"] is None and len(data["nodes"]) == len(report.trace.nodes)
     with chromium() as driver:
         driver.get(path.as_uri())
         assert driver.execute_script("return document.body.dataset.ready") == "1"
+        assert driver.execute_script("return window.btgenReplay.shown()") <= MAX_NODES  # opened breadth first
         driver.find_element("tag name", "body").send_keys("\ue012")  # ←
         state = page_status(driver)
         assert state["tick"] == len(report.trace.times) - 2

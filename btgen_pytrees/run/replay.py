@@ -1,12 +1,14 @@
 """The replay page (``run --replay run.html``): one self-contained HTML file to step through a run.
 
-It shows the generated tree as the SVG view draws it
-(:mod:`btgen_pytrees.render.dot`, laid out by Graphviz), a time slider over
-every tick, each node coloured by its status at the slider's tick, every
-signal's value at that tick with its curve and a cursor, and the verdicts with
-the report's explanation. ←/→ step one tick, Home/End jump to the ends.
-Everything is drawn from the run's :class:`~.trace.RunTrace` and
-:class:`~.report.Report`.
+It shows the generated tree, laid out by the page's own script (no Graphviz,
+nothing to install besides this package), with zoom and pan, a click on a node
+to collapse or expand its subtree, and a search by id or name; a time slider
+over every tick, each node coloured by its status at the slider's tick; every
+signal's value at that tick with its curve and a cursor; the verdicts with the
+report's explanation; and, for a system that offers a scene (SUMO does;
+:mod:`.scene`), a bird's-eye view of the road and every vehicle at that tick.
+←/→ step one tick, Home/End jump to the ends. Everything is drawn from the
+run's :class:`~.trace.RunTrace` and :class:`~.report.Report`.
 
 Self-contained: one file, no network, no server, no external script, style or
 font; it opens from disk (``file://``). The data is one JSON block the page's
@@ -14,11 +16,12 @@ own script reads; every ``<``, ``>`` and ``&`` in it is a JSON escape, so no
 text of the test (names, messages, signal values) can end the block or become
 markup, and the script writes text with ``textContent`` only.
 
-Large trees: Graphviz lays out the tree once, at export time. Above
-:data:`MAX_NODES` nodes the picture collapses deep subtrees as
-``--max-depth`` does (the deepest depth that keeps at most that many nodes); a
-collapsed box takes the most telling status of the nodes inside it (failure,
-then running, then success). ``--max-depth N`` chooses the depth instead.
+Large trees: the page holds every node, but a tree of more than
+:data:`MAX_NODES` nodes opens breadth first: a node is open when its children
+still fit in that many shown nodes, else collapsed; ``--max-depth N`` collapses
+below depth N instead. A collapsed node shows how many
+nodes it hides and the most telling status inside it (failure, then running,
+then success); a click expands it.
 
 >>> from btgen_pytrees import generate, load
 >>> root = generate(load("examples/fig1.json"))  # 27 nodes; 1, 2, 3 and 5 at depths 0 to 3
@@ -32,30 +35,25 @@ import html
 import json
 import math
 import re
-import shutil
 from collections import Counter
-from typing import Any
+from typing import Any, Sequence
 
 import py_trees
+from py_trees.composites import Parallel, Selector
+from py_trees.composites import Sequence as PySequence
+from py_trees.decorators import Decorator
 
 from ..model import TestCase
-from ..render.dot import GraphvizMissing, dot_graph, graphviz_render
-from ..render.info import walk
+from ..render.dot import STYLES
+from ..render.info import annotation, role, type_name, walk
+from .export import select
 from .report import Report
-from .trace import ENDED, RunTrace
+from .trace import ENDED
 
-__all__ = ["replay_html", "auto_depth", "require_graphviz", "MAX_NODES"]
+__all__ = ["replay_html", "auto_depth", "MAX_NODES"]
 
-MAX_NODES = 400
-"""The most nodes the page draws before it collapses deep subtrees (Graphviz lays 400 out in about a second)."""
-
-_UNSAFE_SVG = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")
-
-
-def require_graphviz() -> None:
-    """Raise :class:`GraphvizMissing` (a one-line hint naming ``--replay``) unless ``dot`` is on PATH."""
-    if shutil.which("dot") is None:
-        raise GraphvizMissing("svg", option="--replay")
+MAX_NODES = 100
+"""The most nodes the page shows when it opens (breadth first); the rest start collapsed (a click expands them)."""
 
 
 def auto_depth(root: py_trees.behaviour.Behaviour, max_nodes: int = MAX_NODES) -> int | None:
@@ -94,10 +92,41 @@ def _value(value: Any) -> Any:
         return str(value)
 
 
-def _page_data(report: Report, case: TestCase, trace: RunTrace | None, graph_of: list[int],
-               names: list[str], depth: int | None) -> dict[str, Any]:  # fmt: skip
-    index = {n.id: i for i, n in enumerate(trace.nodes)} if trace is not None else {}
+def _style(node: py_trees.behaviour.Behaviour) -> str:
+    """The node's key in :data:`~btgen_pytrees.render.dot.STYLES` (its colour in the tree picture)."""
+    kind = role(node)
+    if kind != "composite":
+        return kind
+    for cls in (Parallel, PySequence, Selector, Decorator):
+        if isinstance(node, cls):
+            return cls.__name__
+    return "leaf"
+
+
+def _tree_data(root: py_trees.behaviour.Behaviour) -> list[list[Any]]:
+    """Every node in pre-order: ``[name, style, note, parent, id]``."""
+    rows: list[list[Any]] = []
+    stack: list[int] = []  # indices of the open ancestors, by depth
+    for depth, node in walk(root):
+        del stack[depth:]
+        note = annotation(node)
+        if role(node) == "composite" and isinstance(node, (Parallel, PySequence, Selector)):
+            note = f"{type_name(node)}: {note}" if note else type_name(node)
+        item = getattr(node, "btgen_entry", None) or getattr(node, "btgen_criterion", None)
+        rows.append([node.name, _style(node), note[:80] + ("…" if len(note) > 80 else ""),
+                     stack[-1] if stack else -1, item.id if item is not None else ""])  # fmt: skip
+        stack.append(len(rows) - 1)
+    return rows
+
+
+def _page_data(report: Report, root: py_trees.behaviour.Behaviour, depth: int | None, open_nodes: int,
+               signals: Sequence[str] | None) -> dict[str, Any]:  # fmt: skip
+    trace = report.trace
+    nodes = _tree_data(root)
+    index = {row[4]: i for i, row in enumerate(nodes) if row[4]}
     headline = f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({report.ticks} ticks)"
+    names = select(sorted(trace.signals), signals) if trace is not None else []
+    scene = getattr(trace, "scene", None)
     data: dict[str, Any] = {
         "test": report.test,
         "verdict": report.verdict,
@@ -105,56 +134,43 @@ def _page_data(report: Report, case: TestCase, trace: RunTrace | None, graph_of:
         "message": report.message,
         "explanation": [str(line) for line in getattr(report, "explanation", None) or ()],
         "times": trace.times if trace is not None else [],
-        "graph": graph_of,
-        "graphNames": names,
+        "nodes": nodes,
+        "styles": {key: style.get("fillcolor", "white") for key, style in STYLES.items()},
         "transitions": trace.to_data()["transitions"] if trace is not None else [],
         "signals": {name: [[k] if v is ENDED else [k, _value(v)] for k, v in zip(*trace.signals[name])]  # [k]: ended
-                    for name in sorted(trace.signals)} if trace is not None else {},  # fmt: skip
+                    for name in names},
         "oracles": [{"id": o.id, "type": o.type, "expect": o.expect, "verdict": o.verdict, "at": o.at,
                      "message": o.message, "node": index.get(o.id, -1)} for o in report.oracles],  # fmt: skip
         "execute": [{"id": e.id, "kind": e.kind, "status": e.status, "start": e.start, "end": e.end,
                      "message": e.message, "node": index.get(e.id, -1)} for e in report.execute],  # fmt: skip
         "truncated": trace.truncated if trace is not None else None,
         "collapsedBelow": depth,
+        "openNodes": open_nodes,
+        "scene": scene.to_data() if scene is not None else None,
     }
     return data
 
 
 def replay_html(report: Report, case: TestCase, root: py_trees.behaviour.Behaviour, *,
-                max_depth: int | None = None, max_nodes: int = MAX_NODES) -> bytes:  # fmt: skip
+                max_depth: int | None = None, max_nodes: int = MAX_NODES,
+                signals: Sequence[str] | None = None) -> bytes:  # fmt: skip
     """The replay page of *report* (a run of *case*) as UTF-8 bytes.
 
     Args:
         root: a tree generated from *case* the same way as the run's (it is
             drawn, not ticked); node *i* of the trace is its *i*-th node in pre-order
-        max_depth: collapse below this depth (default: :func:`auto_depth`)
-
-    Raises:
-        GraphvizMissing: Graphviz's ``dot`` is not installed
+        max_depth: open with the subtrees below this depth collapsed (``--max-depth``)
+        max_nodes: without *max_depth*, a larger tree opens breadth first with at most this many nodes showing
+        signals: shell globs choosing the signals shown (``--signals``; default all)
     """
-    require_graphviz()
     trace = report.trace
-    behaviours = [node for _, node in walk(root)]
-    if trace is not None and len(trace.nodes) != len(behaviours):
+    count = sum(1 for _ in walk(root))
+    if trace is not None and len(trace.nodes) != count:
         raise ValueError("the report's trace is of another tree")
-    depth = max_depth if max_depth is not None else auto_depth(root, max_nodes)
-    endpoints: dict[int, str] = {}
-    graph = dot_graph(root, max_depth=depth, endpoints=endpoints)
-    svg = graphviz_render(graph.to_string(), "svg").decode("utf-8")
-    svg = _UNSAFE_SVG.sub("\ufffd", svg[svg.index("<svg"):])
-    names: list[str] = []
-    position: dict[str, int] = {}
-    graph_of = []
-    for node in behaviours:
-        name = endpoints[id(node)]
-        if name not in position:
-            position[name] = len(names)
-            names.append(name)
-        graph_of.append(position[name])
-    data = _page_data(report, case, trace, graph_of, names, depth)
+    data = _page_data(report, root, max_depth, max_nodes, signals)
     parts = {"TITLE": html.escape(_visible(f"{report.test}: {report.verdict} (replay)")), "STYLE": _STYLE,
-             "SCRIPT": _SCRIPT, "SVG": svg, "DATA": _script_json(data)}  # fmt: skip
-    page = re.sub("@(TITLE|STYLE|SCRIPT|SVG|DATA)@", lambda m: parts[m.group(1)], _PAGE)  # one pass: no text is re-read
+             "SCRIPT": _SCRIPT, "DATA": _script_json(data)}  # fmt: skip
+    page = re.sub("@(TITLE|STYLE|SCRIPT|DATA)@", lambda m: parts[m.group(1)], _PAGE)  # one pass: no text is re-read
     return page.encode("utf-8")
 
 
@@ -180,15 +196,35 @@ _PAGE = """<!DOCTYPE html>
 <button type="button" id="next" title="next tick (→)">▶</button>
 <span id="clock"></span>
 <span id="jumps"></span>
-<button type="button" id="fit">fit</button>
 </div>
 <p id="legend"><span class="key st-running">running</span> <span class="key st-success">success</span>
 <span class="key st-failure">failure</span> <span class="key st-invalid">not running / halted</span>
+<span class="hint">tree: wheel or pinch to zoom, drag to pan, click a node to collapse or expand it</span>
 <span id="note"></span></p>
 </header>
 <main>
-<section id="tree">
-@SVG@
+<section id="views">
+<div id="scene-box" hidden>
+<div class="toolbar"><strong>Scene</strong>
+<button type="button" id="scene-in" title="zoom in">+</button>
+<button type="button" id="scene-out" title="zoom out">−</button>
+<button type="button" id="scene-fit" title="the whole network">fit</button>
+<label><input type="checkbox" id="follow" checked> follow the ego</label>
+<span class="key scene-ego">ego</span> <span class="key scene-other">others</span> <span class="key scene-collided">collided</span>
+</div>
+<div id="scene"><svg id="scene-svg" xmlns="http://www.w3.org/2000/svg"><g id="scene-vp"><g id="scene-map"></g><g id="scene-cars"></g></g></svg>
+<div id="scene-tip" hidden></div></div>
+</div>
+<div class="toolbar" id="tree-tools">
+<button type="button" id="zoom-in" title="zoom in (+)">+</button>
+<button type="button" id="zoom-out" title="zoom out (−)">−</button>
+<button type="button" id="fit" title="the whole tree">fit</button>
+<button type="button" id="actual" title="100 %">100 %</button>
+<button type="button" id="expand-all">expand all</button>
+<input type="search" id="search" placeholder="find a node: id or name, Enter" aria-label="find a node">
+<span id="found"></span>
+</div>
+<div id="tree"><svg id="tree-svg" xmlns="http://www.w3.org/2000/svg"><g id="tree-vp"><path id="edges"></path><g id="tree-nodes"></g></g></svg></div>
 </section>
 <aside>
 <h2>Oracles</h2>
@@ -215,13 +251,22 @@ h1.pass { color: #1a7f37; } h1.fail, h1.error, h1.timeout { color: #c62828; }
 #slider { flex: 1 1 320px; }
 #clock { font-variant-numeric: tabular-nums; min-width: 16em; }
 #legend { margin: 4px 0 0; font-size: 12px; }
+.hint { color: #666; margin-left: 8px; }
 .key { padding: 1px 6px; border: 3px solid #999; border-radius: 3px; }
 .key.st-running { border-color: #1d4ed8; } .key.st-success { border-color: #15803d; }
 .key.st-failure { border-color: #dc2626; } .key.st-invalid { opacity: .5; }
+.key.scene-ego { border-color: #2563eb; } .key.scene-other { border-color: #9ca3af; } .key.scene-collided { border-color: #dc2626; }
 #note { color: #a15c00; }
 main { display: flex; gap: 12px; padding: 8px 12px; align-items: flex-start; }
-#tree { flex: 3 1 0; overflow: auto; border: 1px solid #ddd; max-height: calc(100vh - 140px); }
-#tree.fit svg { width: 100%; height: auto; }
+#views { flex: 3 1 0; min-width: 0; display: flex; flex-direction: column; gap: 8px; }
+.toolbar { display: flex; gap: 6px; align-items: center; flex-wrap: wrap; font-size: 12px; margin-bottom: 2px; }
+#search { min-width: 16em; }
+#found { color: #555; }
+#tree, #scene { position: relative; border: 1px solid #ddd; overflow: hidden; touch-action: none; background: #fcfcfc; }
+#tree { height: calc(100vh - 190px); min-height: 320px; cursor: grab; }
+body.has-scene #tree { height: calc(100vh - 540px); }
+#scene { height: 300px; cursor: grab; background: #eef3e8; }
+#tree svg, #scene svg { width: 100%; height: 100%; display: block; user-select: none; }
 aside { flex: 2 1 0; min-width: 320px; font-size: 12px; }
 h2 { font-size: 14px; margin: 10px 0 4px; }
 table { border-collapse: collapse; width: 100%; }
@@ -233,10 +278,25 @@ td.msg { white-space: pre-wrap; word-break: break-word; }
 svg.curve { display: block; }
 svg.curve polyline { fill: none; stroke: #2563eb; stroke-width: 1.2; }
 svg.curve line { stroke: #dc2626; stroke-width: 1; }
-#tree g.node.st-invalid { opacity: .45; }
-#tree g.node.st-running :is(polygon, ellipse, path, polyline) { stroke: #1d4ed8; stroke-width: 4px; }
-#tree g.node.st-success :is(polygon, ellipse, path, polyline) { stroke: #15803d; stroke-width: 4px; }
-#tree g.node.st-failure :is(polygon, ellipse, path, polyline) { stroke: #dc2626; stroke-width: 5px; }
+#edges { fill: none; stroke: #666; stroke-width: 1; }
+g.node { cursor: pointer; }
+g.node rect { stroke: #333; stroke-width: 1; }
+g.node text { font-size: 12px; fill: #111; pointer-events: none; }
+g.node text.note { font-size: 10px; fill: #444; }
+g.node text.more { font-size: 11px; fill: #a15c00; font-weight: bold; }
+g.node.collapsed rect { stroke-dasharray: 4 2; }
+g.node.st-invalid { opacity: .45; }
+g.node.st-running rect { stroke: #1d4ed8; stroke-width: 4px; }
+g.node.st-success rect { stroke: #15803d; stroke-width: 4px; }
+g.node.st-failure rect { stroke: #dc2626; stroke-width: 5px; }
+g.node.found rect { filter: drop-shadow(0 0 6px #f59e0b); stroke: #f59e0b; stroke-width: 5px; }
+#scene-map polyline { fill: none; stroke: #9aa0a6; stroke-linecap: butt; stroke-linejoin: round; }
+#scene-map polygon { fill: #9aa0a6; stroke: none; }
+g.car rect { stroke: #111; stroke-width: .2; }
+g.car.other rect { fill: #d1d5db; } g.car.ego rect { fill: #2563eb; } g.car.collided rect { fill: #dc2626; }
+g.car text { fill: #111; pointer-events: none; }
+#scene-tip { position: absolute; background: rgba(255,255,255,.95); border: 1px solid #999; padding: 4px 6px; font-size: 11px;
+  white-space: pre; pointer-events: none; font-variant-numeric: tabular-nums; }
 """
 
 _SCRIPT = r"""
@@ -244,13 +304,15 @@ _SCRIPT = r"""
 (function () {
   const data = JSON.parse(document.getElementById("run-data").textContent);
   const STATUS = ["invalid", "running", "success", "failure"];
-  const RANK = [0, 2, 1, 3];  // a collapsed box shows failure, then running, then success
-  const times = data.times, tr = data.transitions, nNodes = data.graph.length;
+  const RANK = [0, 2, 1, 3];  // a collapsed node shows failure, then running, then success
+  const NS = "http://www.w3.org/2000/svg";
+  const times = data.times, tr = data.transitions, nodes = data.nodes, N = nodes.length;
   const last = Math.max(times.length - 1, 0);
-  const state = new Uint8Array(nNodes);
+  const state = new Uint8Array(N);
   let applied = -1, cursor = 0, tick = -1;
   const $ = (id) => document.getElementById(id);
   const el = (tag, text, cls) => { const e = document.createElement(tag); if (text !== undefined) e.textContent = text; if (cls) e.className = cls; return e; };
+  const svgEl = (tag, attrs) => { const e = document.createElementNS(NS, tag); for (const k in attrs) e.setAttribute(k, attrs[k]); return e; };
   const fmt = (v) => {
     if (v === null || v === undefined) return "\u2014";
     if (typeof v === "number") return Number.isInteger(v) ? String(v) : String(Number(v.toPrecision(6)));
@@ -259,15 +321,164 @@ _SCRIPT = r"""
   };
   const secs = (t) => (t === null || t === undefined) ? "" : fmt(t);
 
-  // the tree: graph node name -> its <g> element
-  const graphEls = new Array(data.graphNames.length).fill(null);
-  const byName = new Map(data.graphNames.map((n, i) => [n, i]));
-  for (const g of document.querySelectorAll("#tree g.node")) {
-    const title = g.querySelector("title");
-    const i = title ? byName.get(title.textContent) : undefined;
-    if (i !== undefined) { graphEls[i] = g; g.dataset.graphNode = title.textContent; }
+  // ---- pan and zoom, for the tree and the scene --------------------------------------------------
+  function panZoom(box, vp, onChange) {
+    const view = { s: 1, x: 0, y: 0 };
+    const apply = () => { vp.setAttribute("transform", "translate(" + view.x + "," + view.y + ") scale(" + view.s + ")"); if (onChange) onChange(view); };
+    const zoomAt = (px, py, f) => {
+      const s = Math.min(8, Math.max(0.01, view.s * f));
+      view.x = px - (px - view.x) * (s / view.s); view.y = py - (py - view.y) * (s / view.s); view.s = s; apply();
+    };
+    const local = (ev) => { const r = box.getBoundingClientRect(); return [ev.clientX - r.left, ev.clientY - r.top]; };
+    box.addEventListener("wheel", (ev) => { ev.preventDefault(); const [x, y] = local(ev); zoomAt(x, y, Math.exp(-ev.deltaY * (ev.ctrlKey ? 0.01 : 0.0015))); }, { passive: false });
+    const down = new Map();
+    let moved = 0, pinch = 0;
+    box.addEventListener("pointerdown", (ev) => { down.set(ev.pointerId, local(ev)); moved = 0; if (down.size === 2) { const [a, b] = [...down.values()]; pinch = Math.hypot(a[0] - b[0], a[1] - b[1]); } });
+    box.addEventListener("pointermove", (ev) => {
+      if (!down.has(ev.pointerId)) return;
+      const p = local(ev), q = down.get(ev.pointerId);
+      if (down.size === 1) {
+        const dx = p[0] - q[0], dy = p[1] - q[1];
+        moved += Math.abs(dx) + Math.abs(dy);
+        if (moved > 3) { if (!box.hasPointerCapture(ev.pointerId)) box.setPointerCapture(ev.pointerId); view.x += dx; view.y += dy; apply(); if (api.onPan) api.onPan(); }
+        down.set(ev.pointerId, p);
+      } else if (down.size === 2) {
+        down.set(ev.pointerId, p);
+        const [a, b] = [...down.values()], d = Math.hypot(a[0] - b[0], a[1] - b[1]);
+        if (pinch > 0) zoomAt((a[0] + b[0]) / 2, (a[1] + b[1]) / 2, d / pinch);
+        pinch = d; moved = 99;
+      }
+    });
+    const up = (ev) => { down.delete(ev.pointerId); if (down.size < 2) pinch = 0; };
+    box.addEventListener("pointerup", up); box.addEventListener("pointercancel", up);
+    const api = {
+      view, apply, zoomAt,
+      dragged: () => moved > 3,
+      zoom: (f) => zoomAt(box.clientWidth / 2, box.clientHeight / 2, f),
+      fit: (x0, y0, x1, y1, most) => {
+        const w = Math.max(x1 - x0, 1e-6), h = Math.max(y1 - y0, 1e-6), W = box.clientWidth, H = box.clientHeight;
+        view.s = Math.min((W - 20) / w, (H - 20) / h, most || 8);
+        view.x = (W - w * view.s) / 2 - x0 * view.s; view.y = (H - h * view.s) / 2 - y0 * view.s; apply();
+      },
+      centre: (cx, cy, s) => { if (s) view.s = s; view.x = box.clientWidth / 2 - cx * view.s; view.y = box.clientHeight / 2 - cy * view.s; apply(); },
+    };
+    return api;
   }
 
+  // ---- the tree: structure, layout, collapse ------------------------------------------------------
+  const parent = new Int32Array(N), depth = new Int32Array(N), end = new Int32Array(N), kids = [];
+  for (let i = 0; i < N; i++) { kids.push([]); parent[i] = nodes[i][3]; depth[i] = parent[i] >= 0 ? depth[parent[i]] + 1 : 0; if (parent[i] >= 0) kids[parent[i]].push(i); }
+  for (let i = N - 1; i >= 0; i--) { const k = kids[i]; end[i] = k.length ? end[k[k.length - 1]] : i + 1; }
+  const collapsed = new Uint8Array(N);
+  if (data.collapsedBelow !== null) { for (let i = 0; i < N; i++) if (depth[i] === data.collapsedBelow && kids[i].length) collapsed[i] = 1; }
+  else if (N > data.openNodes) {  // open breadth first, as long as at most openNodes nodes show
+    for (let i = 0; i < N; i++) if (kids[i].length) collapsed[i] = 1;
+    let open = 1;
+    const queue = [0];
+    for (let q = 0; q < queue.length; q++) {
+      const i = queue[q];
+      if (!kids[i].length || open + kids[i].length > data.openNodes) continue;
+      collapsed[i] = 0; open += kids[i].length;
+      for (const c of kids[i]) queue.push(c);
+    }
+  }
+  const openedCollapsed = collapsed.some((c) => c);
+  const rep = new Int32Array(N);  // each node's visible stand-in: itself, or the collapsed node hiding it
+  const ROW = 40, GAP = 36, CH = 6.6;
+  const label = (i) => nodes[i][0];
+  const width = (i) => Math.min(260, 16 + CH * Math.max(label(i).length, (nodes[i][2] || "").length * 0.8));
+  const clip = (text, w, size) => { const room = Math.floor((w - 10) / (size * 0.55)); return text.length > room ? text.slice(0, Math.max(room - 1, 1)) + "\u2026" : text; };
+  let pos = null, shown = [], gEls = new Map(), bounds = [0, 0, 1, 1], found = -1;
+  const treeBox = $("tree"), treeVp = $("tree-vp");
+  const tree = panZoom(treeBox, treeVp);
+
+  function layout() {
+    shown = [];
+    for (let i = 0; i < N;) {  // visible nodes in pre-order; a collapsed node hides its subtree
+      shown.push(i);
+      for (let j = i; j < (collapsed[i] ? end[i] : i + 1); j++) rep[j] = i;
+      i = collapsed[i] ? end[i] : i + 1;
+    }
+    const colW = [];
+    for (const i of shown) colW[depth[i]] = Math.max(colW[depth[i]] || 0, width(i));
+    const colX = [0];
+    for (let d = 1; d < colW.length; d++) colX[d] = colX[d - 1] + colW[d - 1] + GAP;
+    pos = new Map();
+    let row = 0;
+    const place = (i) => {  // iterative post-order: leaves take rows, a parent sits on its first child's row
+      const stack = [[i, 0]];
+      while (stack.length) {
+        const top = stack[stack.length - 1], [j, c] = top;
+        const open = collapsed[j] ? [] : kids[j];
+        if (c < open.length) { top[1]++; stack.push([open[c], 0]); continue; }
+        stack.pop();
+        const y = open.length ? pos.get(open[0])[1] : (row++) * ROW;
+        pos.set(j, [colX[depth[j]], y, width(j)]);
+      }
+    };
+    if (N) place(0);
+    bounds = [-10, -20, colX[colX.length - 1] + colW[colW.length - 1] + 10, Math.max(row, 1) * ROW];
+    draw();
+  }
+
+  function draw() {
+    const g = $("tree-nodes");
+    g.textContent = "";
+    gEls = new Map();
+    const d = [];
+    for (const i of shown) {
+      const [x, y, w] = pos.get(i);
+      if (parent[i] >= 0) { const [px, py, pw] = pos.get(parent[i]); const mx = (px + pw + x) / 2; d.push("M" + (px + pw) + "," + py + "C" + mx + "," + py + " " + mx + "," + y + " " + x + "," + y); }
+      const node = svgEl("g", { class: "node" + (collapsed[i] ? " collapsed" : ""), transform: "translate(" + x + "," + (y - 15) + ")" });
+      node.dataset.node = i;
+      if (nodes[i][4]) node.dataset.id = nodes[i][4];
+      node.appendChild(svgEl("rect", { width: w, height: 30, rx: 5, fill: data.styles[nodes[i][1]] || "#eee" }));
+      const name = svgEl("text", { x: 6, y: nodes[i][2] ? 12 : 19 });
+      name.textContent = clip(label(i), w, 12);
+      node.appendChild(name);
+      if (nodes[i][2]) { const note = svgEl("text", { x: 6, y: 25, class: "note" }); note.textContent = clip(nodes[i][2], w, 10); node.appendChild(note); }
+      if (collapsed[i]) { const more = svgEl("text", { x: w + 4, y: 19, class: "more" }); more.textContent = "+" + (end[i] - i - 1); node.appendChild(more); }
+      const title = svgEl("title", {}); title.textContent = label(i) + (nodes[i][2] ? "\n" + nodes[i][2] : "") + (kids[i].length ? (collapsed[i] ? "\n(click: expand " + (end[i] - i - 1) + " nodes)" : "\n(click: collapse)") : "");
+      node.appendChild(title);
+      g.appendChild(node);
+      gEls.set(i, node);
+    }
+    $("edges").setAttribute("d", d.join(""));
+    if (found >= 0 && gEls.has(found)) gEls.get(found).classList.add("found");
+    if (tick >= 0) paint();
+  }
+
+  const toggle = (i) => { if (!kids[i].length) return; const [x, y] = pos.get(i); const sx = tree.view.x + x * tree.view.s, sy = tree.view.y + y * tree.view.s;
+    collapsed[i] = collapsed[i] ? 0 : 1; layout(); const [nx, ny] = pos.get(i); tree.view.x = sx - nx * tree.view.s; tree.view.y = sy - ny * tree.view.s; tree.apply(); };
+  treeBox.addEventListener("click", (ev) => {
+    const g = ev.target.closest ? ev.target.closest("g.node") : null;
+    if (g && !tree.dragged()) toggle(Number(g.dataset.node));
+  });
+  const fitTree = () => tree.fit(bounds[0], bounds[1], bounds[2], bounds[3], 1.5);
+  $("zoom-in").addEventListener("click", () => tree.zoom(1.25));
+  $("zoom-out").addEventListener("click", () => tree.zoom(0.8));
+  $("fit").addEventListener("click", fitTree);
+  $("actual").addEventListener("click", () => { const cx = (treeBox.clientWidth / 2 - tree.view.x) / tree.view.s, cy = (treeBox.clientHeight / 2 - tree.view.y) / tree.view.s; tree.centre(cx, cy, 1); });
+  $("expand-all").addEventListener("click", () => { collapsed.fill(0); layout(); fitTree(); });
+  let matches = [], matchAt = -1, query = "";
+  function search(q) {
+    q = q.trim().toLowerCase();
+    if (q !== query) { query = q; matches = []; matchAt = -1; if (q) for (let i = 0; i < N; i++) if (nodes[i][4].toLowerCase() === q || nodes[i][4].toLowerCase().includes(q) || label(i).toLowerCase().includes(q)) matches.push(i);
+      matches.sort((a, b) => (nodes[b][4].toLowerCase() === q) - (nodes[a][4].toLowerCase() === q) || a - b); }
+    if (!matches.length) { $("found").textContent = q ? "no node matches" : ""; return; }
+    matchAt = (matchAt + 1) % matches.length;
+    const i = matches[matchAt];
+    for (let a = parent[i]; a >= 0; a = parent[a]) collapsed[a] = 0;
+    if (found >= 0 && gEls.has(found)) gEls.get(found).classList.remove("found");
+    found = i;
+    layout();
+    const [x, y, w] = pos.get(i);
+    tree.centre(x + w / 2, y, Math.max(tree.view.s, 1));
+    $("found").textContent = (matchAt + 1) + " of " + matches.length + ": " + label(i);
+  }
+  $("search").addEventListener("keydown", (ev) => { if (ev.key === "Enter") { ev.preventDefault(); search($("search").value); } ev.stopPropagation(); });
+
+  // ---- the page's text ------------------------------------------------------------------------------
   $("headline").textContent = data.headline;
   $("headline").className = data.verdict;
   const why = [];
@@ -278,33 +489,33 @@ _SCRIPT = r"""
   for (const e of data.execute) if (e.status === "failure" && e.message && !said(e.message)) why.push(e.id + ": " + e.message);
   $("why").textContent = why.join("\n");
   const notes = [];
-  if (data.collapsedBelow !== null) notes.push("subtrees below depth " + data.collapsedBelow + " are collapsed");
-  if (data.truncated !== null) notes.push("the trace was cut at tick " + data.truncated + " (its memory cap): later changes are not shown");
+  if (data.collapsedBelow !== null) notes.push("opened with the subtrees below depth " + data.collapsedBelow + " collapsed (--max-depth; click a node with +N to expand it)");
+  else if (openedCollapsed) notes.push("a large tree: opened with " + data.openNodes + " nodes or fewer showing (click a node with +N to expand it, or find one by name)");
+  if (data.truncated !== null) notes.push("the trace was cut at tick " + (data.truncated + 1) + " (its memory cap): later changes are not shown");
   $("note").textContent = notes.join("; ");
 
-  // oracles, signals, entries
   const rows = (tbodyId, items, cells) => items.map((item) => {
-    const tr = document.createElement("tr");
-    const made = cells(item).map(([text, cls]) => { const td = el("td", text, cls); tr.appendChild(td); return td; });
-    $(tbodyId).querySelector("tbody").appendChild(tr);
-    return [tr, made];
+    const row = document.createElement("tr");
+    const made = cells(item).map(([text, cls]) => { const td = el("td", text, cls); row.appendChild(td); return td; });
+    $(tbodyId).querySelector("tbody").appendChild(row);
+    return [row, made];
   });
   const oracleRows = rows("oracles", data.oracles, (o) => [[o.id], [o.expect], ["", "now"], [o.verdict, "v-" + o.verdict], [secs(o.at)], [o.message, "msg"]]);
-  oracleRows.forEach(([tr], i) => { tr.dataset.criterion = data.oracles[i].id; });
+  oracleRows.forEach(([row], i) => { row.dataset.criterion = data.oracles[i].id; });
   const entryRows = rows("execute", data.execute, (e) => [[e.id], ["", "now"], [e.status, "v-" + e.status], [secs(e.start)], [secs(e.end)], [e.message, "msg"]]);
-  entryRows.forEach(([tr], i) => { tr.dataset.entry = data.execute[i].id; });
+  entryRows.forEach(([row], i) => { row.dataset.entry = data.execute[i].id; });
 
-  const W = 240, H = 36, NS = "http://www.w3.org/2000/svg";
+  const W = 240, H = 36;
   const span = times.length ? Math.max(times[last], 1e-9) : 1;
   const signals = Object.keys(data.signals).sort().map((name) => {
     const series = data.signals[name];
-    const tr = document.createElement("tr");
-    tr.dataset.signal = name;
-    tr.appendChild(el("td", name));
+    const row = document.createElement("tr");
+    row.dataset.signal = name;
+    row.appendChild(el("td", name));
     const value = el("td", "", "value");
-    tr.appendChild(value);
+    row.appendChild(value);
     const curveCell = el("td");
-    tr.appendChild(curveCell);
+    row.appendChild(curveCell);
     const isNumber = (item) => item.length > 1 && (typeof item[1] === "number" || typeof item[1] === "boolean");
     const numeric = series.filter(isNumber);
     let cursorLine = null;
@@ -327,24 +538,17 @@ _SCRIPT = r"""
         prev = item[1];
       });
       if (prev !== null) { pts.push((W - 2) + "," + y(prev)); lines.push(pts); }
-      const svg = document.createElementNS(NS, "svg");
-      svg.setAttribute("class", "curve"); svg.setAttribute("width", W); svg.setAttribute("height", H);
-      for (const points of lines) {
-        const line = document.createElementNS(NS, "polyline");
-        line.setAttribute("points", points.join(" "));
-        svg.appendChild(line);
-      }
-      const title = document.createElementNS(NS, "title");
-      title.textContent = name + ": " + fmt(lo) + " \u2026 " + fmt(hi);
-      svg.appendChild(title);
-      cursorLine = document.createElementNS(NS, "line");
-      cursorLine.setAttribute("y1", 0); cursorLine.setAttribute("y2", H);
+      const svg = svgEl("svg", { class: "curve", width: W, height: H });
+      for (const points of lines) svg.appendChild(svgEl("polyline", { points: points.join(" ") }));
+      const title = svgEl("title", {}); title.textContent = name + ": " + fmt(lo) + " \u2026 " + fmt(hi); svg.appendChild(title);
+      cursorLine = svgEl("line", { y1: 0, y2: H });
       svg.appendChild(cursorLine);
       curveCell.appendChild(svg);
     }
-    $("signals").querySelector("tbody").appendChild(tr);
-    return { series, value, cursorLine, x: (k) => 2 + (W - 4) * (times[k] / span) };
+    $("signals").querySelector("tbody").appendChild(row);
+    return { name, series, value, cursorLine, x: (k) => 2 + (W - 4) * (times[k] / span) };
   });
+  const byName = new Map(signals.map((s) => [s.name, s]));
 
   function valueAt(series, k) {  // binary search: the last change at or before tick k
     let lo = 0, hi = series.length - 1, found = null;
@@ -352,30 +556,97 @@ _SCRIPT = r"""
     return found;
   }
 
+  // ---- the scene ------------------------------------------------------------------------------------
+  const scene = data.scene;
+  let sceneView = null, hovered = null, egoAt = null;
+  const cars = new Map();
+  if (scene) {
+    $("scene-box").hidden = false;
+    document.body.classList.add("has-scene");
+    const map = $("scene-map");
+    let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
+    const pts = (flat) => { const out = []; for (let j = 0; j + 1 < flat.length; j += 2) { out.push(flat[j] + "," + (-flat[j + 1])); x0 = Math.min(x0, flat[j]); x1 = Math.max(x1, flat[j]); y0 = Math.min(y0, -flat[j + 1]); y1 = Math.max(y1, -flat[j + 1]); } return out.join(" "); };
+    for (const area of scene.map.areas || []) map.appendChild(svgEl("polygon", { points: pts(area) }));
+    for (const [w, flat] of scene.map.lanes || []) map.appendChild(svgEl("polyline", { points: pts(flat), "stroke-width": Math.max(w - 0.25, 0.5) }));
+    for (const lane of map.querySelectorAll("polyline")) lane.style.stroke = "#9aa0a6";
+    if (!isFinite(x0)) { x0 = -50; y0 = -50; x1 = 50; y1 = 50; }
+    const sceneBox = $("scene");
+    sceneView = panZoom(sceneBox, $("scene-vp"), (v) => { for (const c of cars.values()) c.text.setAttribute("font-size", 12 / v.s); });
+    sceneView.onPan = () => { $("follow").checked = false; };
+    sceneView.bounds = [x0, y0, x1, y1];
+    const ego = scene.map.ego;
+    if (!ego || !scene.vehicles.includes(ego)) { $("follow").checked = false; $("follow").disabled = true; }
+    $("scene-in").addEventListener("click", () => { sceneView.zoom(1.25); });
+    $("scene-out").addEventListener("click", () => { sceneView.zoom(0.8); });
+    $("scene-fit").addEventListener("click", () => { $("follow").checked = false; sceneView.fit(x0, y0, x1, y1); });
+    $("follow").addEventListener("change", () => { if ($("follow").checked && egoAt) sceneView.centre(egoAt[0], egoAt[1]); });
+    const tip = $("scene-tip");
+    sceneBox.addEventListener("pointerover", (ev) => { const g = ev.target.closest ? ev.target.closest("g.car") : null; if (g) { hovered = g.dataset.vehicle; tipAt(ev); } });
+    sceneBox.addEventListener("pointerout", (ev) => { const g = ev.target.closest ? ev.target.closest("g.car") : null; if (g) { hovered = null; tip.hidden = true; } });
+    sceneBox.addEventListener("pointermove", (ev) => { if (hovered !== null) tipAt(ev); });
+    function tipAt(ev) { const r = sceneBox.getBoundingClientRect(); tip.style.left = (ev.clientX - r.left + 14) + "px"; tip.style.top = (ev.clientY - r.top + 10) + "px"; tipText(); tip.hidden = false; }
+  }
+  function tipText() {
+    if (hovered === null) return;
+    const lines = [hovered];
+    const prefix = hovered + ".";
+    for (const s of signals) if (s.name.startsWith(prefix)) lines.push(s.name.slice(prefix.length) + " = " + fmt(valueAt(s.series, tick)));
+    if (lines.length === 1) lines.push("(no signals: not tracked, or left out by --signals)");
+    $("scene-tip").textContent = lines.join("\n");
+  }
+  function showScene(k) {
+    const frames = scene.frames, frame = frames[Math.min(k, frames.length - 1)] || [];
+    const here = new Set();
+    egoAt = null;
+    for (let j = 0; j + 4 < frame.length; j += 5) {
+      const v = frame[j], id = scene.vehicles[v], [len, wid] = scene.sizes[v];
+      const x = frame[j + 1], y = -frame[j + 2], a = frame[j + 3], hit = frame[j + 4];
+      let car = cars.get(id);
+      if (!car) {
+        const g = svgEl("g", { class: "car" });
+        g.dataset.vehicle = id;
+        const body = svgEl("rect", { x: -len, y: -wid / 2, width: len, height: wid, rx: Math.min(0.4, wid / 4) });
+        const text = svgEl("text", { "text-anchor": "middle", "font-size": 12 / sceneView.view.s });
+        text.textContent = id;
+        g.appendChild(body); $("scene-cars").appendChild(g); $("scene-cars").appendChild(text);
+        car = { g, body, text }; cars.set(id, car);
+      }
+      const kind = hit ? "collided" : id === scene.map.ego ? "ego" : "other";
+      if (car.kind !== kind) { car.g.setAttribute("class", "car " + kind); car.kind = kind; }
+      car.g.setAttribute("transform", "translate(" + x + "," + y + ") rotate(" + (a - 90) + ")");
+      const rad = (a - 90) * Math.PI / 180;
+      car.text.setAttribute("x", x - Math.cos(rad) * len / 2); car.text.setAttribute("y", y - Math.sin(rad) * len / 2 - wid);
+      car.g.style.display = ""; car.text.style.display = "";
+      car.g.dataset.x = frame[j + 1]; car.g.dataset.y = frame[j + 2]; car.g.dataset.heading = a;
+      here.add(id);
+      if (id === scene.map.ego) egoAt = [x - Math.cos(rad) * len / 2, y - Math.sin(rad) * len / 2];
+    }
+    for (const [id, car] of cars) if (!here.has(id)) { car.g.style.display = "none"; car.text.style.display = "none"; }
+    if ($("follow").checked && egoAt) sceneView.centre(egoAt[0], egoAt[1]);
+    tipText();
+  }
+
+  // ---- one tick -------------------------------------------------------------------------------------
   function apply(k) {
     if (k < applied) { state.fill(0); cursor = 0; applied = -1; }
     while (cursor < tr.length && tr[cursor] <= k) { state[tr[cursor + 1]] = tr[cursor + 2]; cursor += 3; }
     applied = k;
   }
 
+  function paint() {
+    const box = new Int8Array(N).fill(-1);
+    for (let i = 0; i < N; i++) { const r = rep[i], s = state[i]; if (box[r] < 0 || RANK[s] > RANK[box[r]]) box[r] = s; }
+    for (const [i, g] of gEls) {
+      const s = STATUS[Math.max(box[i], 0)];
+      if (g.dataset.status !== s) { g.classList.remove("st-invalid", "st-running", "st-success", "st-failure"); g.classList.add("st-" + s); g.dataset.status = s; }
+    }
+  }
+
   function show(k) {
     k = Math.max(0, Math.min(last, k | 0));
     tick = k;
     apply(k);
-    const box = new Int8Array(graphEls.length).fill(-1);
-    for (let i = 0; i < nNodes; i++) {
-      const g = data.graph[i], s = state[i];
-      if (box[g] < 0 || RANK[s] > RANK[box[g]]) box[g] = s;
-    }
-    graphEls.forEach((g, i) => {
-      if (!g) return;
-      const s = STATUS[Math.max(box[i], 0)];
-      if (g.dataset.status !== s) {
-        g.classList.remove("st-invalid", "st-running", "st-success", "st-failure");
-        g.classList.add("st-" + s);
-        g.dataset.status = s;
-      }
-    });
+    paint();
     const now = (node) => node >= 0 ? STATUS[state[node]] : "";
     const mark = (cell, s) => {  // only what changed: a 2,000-entry table stays fast
       if (cell.dataset.s === s) return;
@@ -388,9 +659,11 @@ _SCRIPT = r"""
       if (sig.value.textContent !== text) sig.value.textContent = text;
       if (sig.cursorLine) { const x = sig.x(k); sig.cursorLine.setAttribute("x1", x); sig.cursorLine.setAttribute("x2", x); }
     }
+    if (scene) showScene(k);
     const slider = $("slider");
     if (Number(slider.value) !== k) slider.value = k;
-    $("clock").textContent = times.length ? "t = " + fmt(times[k]) + " s \u00b7 tick " + k + " of " + last : "no tick ran";
+    // one count everywhere: tick 1 is the run's first tick, as the headline's "(N ticks)" counts them
+    $("clock").textContent = times.length ? "t = " + fmt(times[k]) + " s \u00b7 tick " + (k + 1) + " of " + times.length : "no tick ran";
     document.body.dataset.tick = k;
   }
 
@@ -399,14 +672,15 @@ _SCRIPT = r"""
   slider.addEventListener("input", () => show(Number(slider.value)));
   $("prev").addEventListener("click", () => show(tick - 1));
   $("next").addEventListener("click", () => show(tick + 1));
-  $("fit").addEventListener("click", () => $("tree").classList.toggle("fit"));
   document.addEventListener("keydown", (ev) => {
+    if (ev.target && ev.target.tagName === "INPUT" && ev.target.type !== "range") return;
     const moves = { ArrowLeft: -1, ArrowRight: 1 };
     if (ev.key in moves) { ev.preventDefault(); show(tick + moves[ev.key]); }
     else if (ev.key === "Home") { ev.preventDefault(); show(0); }
     else if (ev.key === "End") { ev.preventDefault(); show(last); }
+    else if (ev.key === "+" || ev.key === "=") tree.zoom(1.25);
+    else if (ev.key === "-") tree.zoom(0.8);
   });
-  // jump buttons: to every failure
   const tickOf = (t) => { let best = 0; times.forEach((s, k) => { if (Math.abs(s - t) < Math.abs(times[best] - t)) best = k; }); return best; };
   const failures = data.oracles.filter((o) => o.verdict === "fail" && o.at !== null).map((o) => [o.id, o.at])
     .concat(data.execute.filter((e) => e.status === "failure" && e.end !== null).map((e) => [e.id, e.end]));
@@ -416,9 +690,18 @@ _SCRIPT = r"""
     b.addEventListener("click", () => show(tickOf(at)));
     $("jumps").appendChild(b);
   }
-  const svgEl = document.querySelector("#tree svg");
-  if (svgEl && svgEl.width.baseVal.value > $("tree").clientWidth) $("tree").classList.add("fit");
+  layout();
+  // open readable: the whole tree if it fits at 60 % or more, else 100 % from the root (top left)
+  const fitScale = Math.min((treeBox.clientWidth - 20) / (bounds[2] - bounds[0]), (treeBox.clientHeight - 20) / (bounds[3] - bounds[1]));
+  if (fitScale >= 0.6) fitTree(); else { tree.view.s = 1; tree.view.x = 10 - bounds[0]; tree.view.y = 10 - bounds[1]; tree.apply(); }
+  if (scene) sceneView.centre(0, 0, Math.max(0.5, $("scene").clientWidth / 120));  // about 120 m across
   show(last);
+  window.btgenReplay = {  // for tests and the curious: read-only views of the page's state
+    view: () => ({ s: tree.view.s, x: tree.view.x, y: tree.view.y }),
+    sceneView: () => sceneView ? { s: sceneView.view.s, x: sceneView.view.x, y: sceneView.view.y } : null,
+    shown: () => shown.length, collapsed: () => Array.from(collapsed.keys()).filter((i) => collapsed[i]),
+    bounds: () => bounds.slice(),
+  };
   document.body.dataset.ready = "1";
 })();
 """

@@ -48,6 +48,7 @@ from ..model import TestCase
 from ..systems.base import System, SystemFailure
 from .collector import Collector, Trace
 from .report import Report
+from .scene import Scene
 
 __all__ = ["run", "run_tree", "create_system", "Trace"]
 
@@ -110,6 +111,7 @@ def run_tree(
             collector.end("error", f"setup() raised {_described(exc)}")
             return collector.report()
         system.start(env)
+        scene, places = _scene(system, collector)
         for k in range(last + 1):
             then = _system_time(case, system, then)
             clock.set(then)
@@ -122,9 +124,13 @@ def run_tree(
                 if is_interrupt(exc):
                     raise
                 collector.finalise()
+                if scene is not None:
+                    scene.record(k, places())
                 collector.raised(exc)
                 break
             collector.finalise()
+            if scene is not None:
+                scene.record(k, places())
             if root.status in _DONE:
                 break
             if k < last:
@@ -192,6 +198,16 @@ def _system_time(case: TestCase, system: System, then: float) -> float:
     shown = repr(now)
     shown = shown if len(shown) <= 60 else type(now).__name__
     raise SystemFailure(f"the {case.system.type!r} system's now() returned {shown}, not a finite number of seconds")
+
+
+def _scene(system: System, collector: Collector) -> tuple[Scene | None, Any]:
+    """A :class:`Scene` in the run's trace, and the system's ``scene_vehicles``, if it offers a scene."""
+    places, scene_map = getattr(system, "scene_vehicles", None), getattr(system, "scene_map", None)
+    if not (callable(places) and callable(scene_map)) or collector.recorder is None:
+        return None, None
+    scene = Scene(scene_map())
+    collector.recorder.trace.scene = scene
+    return scene, places
 
 
 def _system_error(case: TestCase, exc: BaseException) -> str:

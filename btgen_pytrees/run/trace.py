@@ -221,6 +221,8 @@ class RunTrace:
             (:data:`ENDED` where it stopped having one)
         truncated: the first tick from which changes were dropped (``None``: complete)
         limit: the cap on changes
+        scene: where every vehicle was on every tick (:class:`~.scene.Scene`), when the
+            system offers a scene (the runner records it; ``None`` otherwise)
     """
 
     nodes: Sequence[TraceNode]
@@ -231,6 +233,7 @@ class RunTrace:
     signals: dict[str, tuple[array, list[Any]]] = field(default_factory=dict)
     truncated: int | None = None
     limit: int = DEFAULT_LIMIT
+    scene: Any = None
 
     # -- reading ------------------------------------------------------------------------------------
 

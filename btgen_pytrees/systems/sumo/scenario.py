@@ -110,6 +110,9 @@ class Scenario:
         signals: traffic light id -> number of controlled links (length of a state)
         options: options the configuration sets itself
         problems: what is wrong, one line each (``file:line: message``)
+        shapes: the network as drawn by the replay page's scene: ``("lane", width, (x0, y0, x1, y1, ...))``
+            for every lane (internal ones too) and ``("junction", 0.0, (...))`` for every junction
+            outline, in network coordinates; at most :data:`MAX_SHAPE_POINTS` points in all
     """
 
     config: str
@@ -121,6 +124,11 @@ class Scenario:
     signals: Mapping[str, int] = field(default_factory=dict)
     options: Mapping[str, str] = field(default_factory=dict)
     problems: tuple[str, ...] = ()
+    shapes: tuple[tuple[str, float, tuple[float, ...]], ...] = field(default=(), repr=False, compare=False)
+
+
+MAX_SHAPE_POINTS = 200_000
+"""Most points of lane and junction outlines kept for the scene (a city network is left partly undrawn)."""
 
 
 DEFAULT_TYPES = ("DEFAULT_VEHTYPE", "DEFAULT_PEDTYPE", "DEFAULT_BIKETYPE", "DEFAULT_CONTAINERTYPE",
@@ -256,7 +264,8 @@ def read_scenario(config: str) -> Scenario:
             raise ScenarioError(f"{shown}: needs exactly one 'net-file' (found {len(net)})")
         lanes: dict[str, int] = {}
         signals: dict[str, int] = {}
-        _read_net(net[0], os.path.relpath(net[0], base), lanes, signals)
+        shapes: list[tuple[str, float, tuple[float, ...]]] = []
+        _read_net(net[0], os.path.relpath(net[0], base), lanes, signals, shapes)
         demand = _Demand(lanes)
         for path in inputs.get("route-files", []) + inputs.get("additional-files", []):
             demand.read(path, os.path.relpath(path, base))
@@ -264,7 +273,7 @@ def read_scenario(config: str) -> Scenario:
     except ScenarioError as exc:
         return Scenario(config, problems=(str(exc),))
     return Scenario(config, demand.vehicles, frozenset(demand.routes), frozenset(demand.types), lanes,
-                    demand.route_edges, signals, options)  # fmt: skip
+                    demand.route_edges, signals, options, shapes=tuple(shapes))  # fmt: skip
 
 
 _SECTIONS = frozenset({
@@ -318,10 +327,21 @@ def _check_element(tag: str, attributes: Mapping[str, str], where: str) -> None:
         raise ScenarioError(f"{where}: <param key={attributes['key']!r}> equips a device (devices may write files)")
 
 
-def _read_net(path: str, shown: str, lanes: dict[str, int], signals: dict[str, int]) -> None:
+def _points(text: str) -> tuple[float, ...]:
+    """``"x,y x,y ..."`` (a SUMO shape) as flat floats; ``()`` when it does not read."""
+    try:
+        flat = tuple(float(v) for pair in text.split() for v in pair.split(",")[:2])
+    except ValueError:
+        return ()
+    return flat if len(flat) % 2 == 0 and all(math.isfinite(v) for v in flat) else ()
+
+
+def _read_net(path: str, shown: str, lanes: dict[str, int], signals: dict[str, int],
+              shapes: list[tuple[str, float, tuple[float, ...]]] | None = None) -> None:  # fmt: skip
     edge: str | None = None
     logic = ""
     empty = True
+    room = MAX_SHAPE_POINTS
     for tag, attributes, line, depth in _elements(path, shown):
         where = f"{shown}:{line}"
         if depth == 1 and tag != "net":
@@ -334,6 +354,17 @@ def _read_net(path: str, shown: str, lanes: dict[str, int], signals: dict[str, i
                 lanes[edge] = 0
         elif tag == "lane" and edge is not None:
             lanes[edge] += 1
+        if shapes is not None and room > 0 and tag in ("lane", "junction") and "shape" in attributes:
+            points = _points(attributes["shape"])
+            if tag == "junction" and attributes.get("type") == "internal":
+                points = ()
+            if points:
+                try:
+                    width = float(attributes.get("width", "3.2")) if tag == "lane" else 0.0
+                except ValueError:
+                    width = 3.2
+                shapes.append((tag, width if math.isfinite(width) else 3.2, points))
+                room -= len(points) // 2
         elif tag == "tlLogic":
             logic = attributes.get("id", "")
             signals.setdefault(logic, 0)

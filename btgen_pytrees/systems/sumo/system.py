@@ -73,7 +73,9 @@ _INF = math.inf
 
 # libsumo variable ids (traci.constants)
 _SPEED, _POSITION, _LANE_INDEX, _LEADER, _ACCEL, _DISTANCE, _LATERAL = 0x40, 0x42, 0x52, 0x68, 0x72, 0x84, 0xB8
-_VARIABLES = (_SPEED, _ACCEL, _POSITION, _LANE_INDEX, _LATERAL, _DISTANCE)
+_ANGLE = 0x43
+_VARIABLES = (_SPEED, _ACCEL, _POSITION, _LANE_INDEX, _LATERAL, _DISTANCE, _ANGLE)
+_PLACE = (_POSITION, _ANGLE)  # every other vehicle: where it is, for the replay page's scene
 
 _active: "SumoSystem | None" = None
 """The simulation libsumo is running in this process, if any."""
@@ -150,6 +152,7 @@ class SumoSystem:
         self.collisions = 0
         self.collided: set[str] = set()
         self.seen: set[str] = set()
+        self.sizes: dict[str, tuple[float, float]] = {}  # every departed vehicle: (length, width), for the scene
         self.min_gap: dict[str, float] = {}
         self.results: dict[str, dict[int, Any]] = {}
         self.vehicle_count = 0
@@ -243,7 +246,10 @@ class SumoSystem:
                 vehicle.subscribeLeader(vid, LOOKAHEAD)
                 self.min_gap[vid] = vehicle.getMinGap(vid)
                 self.seen.add(vid)
-        self.results = vehicle.getAllSubscriptionResults() if self.seen else {}
+            else:
+                vehicle.subscribe(vid, _PLACE)
+            self.sizes[vid] = (vehicle.getLength(vid), vehicle.getWidth(vid))
+        self.results = vehicle.getAllSubscriptionResults() if self.sizes else {}
         self.vehicle_count = vehicle.getIDCount()
         collisions = simulation.getCollisions()
         if collisions or self._contacts:
@@ -283,7 +289,8 @@ class SumoSystem:
             gap = distance + self.min_gap[vid] if leader else _INF
             if gap <= LOOKAHEAD:  # SUMO reports a leader on the same lane however far ahead: none beyond LOOKAHEAD
                 ahead = results.get(leader)
-                closing = speed - (ahead[_SPEED] if ahead is not None else self._lib.vehicle.getSpeed(leader))
+                closing = speed - (ahead[_SPEED] if ahead is not None and _SPEED in ahead
+                                   else self._lib.vehicle.getSpeed(leader))  # fmt: skip
                 ttc = 0.0 if gap <= 0 else gap / closing if closing > 0 else _INF
             else:
                 gap = ttc = _INF
@@ -303,6 +310,27 @@ class SumoSystem:
             raise SystemFailure(f"the SUMO simulation has no vehicles left at {self.now():g} s (every vehicle has "
                                 "arrived) while the test is still running")  # fmt: skip
 
+    # -- the scene (the replay page's bird's-eye view; docs/systems.md) ---------
+    def scene_map(self) -> dict[str, Any]:
+        """The road network: every lane as a polyline with its width, every junction's outline, and the ego's id."""
+        lanes = [[width, list(points)] for kind, width, points in self.scenario.shapes if kind == "lane"]
+        junctions = [list(points) for kind, _, points in self.scenario.shapes if kind == "junction"]
+        return {"lanes": lanes, "areas": junctions, "ego": "ego" if "ego" in self._tracked else ""}
+
+    def scene_vehicles(self) -> Iterable[tuple[str, float, float, float, float, float, bool]]:
+        """Every vehicle in the network now: ``(id, x, y, heading, length, width, collided)``.
+
+        ``x, y``: the front bumper's middle, metres; ``heading``: degrees clockwise from north
+        (SUMO's angle); ``collided``: has been in a collision. Sorted by id.
+        """
+        results, sizes, collided = self.results, self.sizes, self.collided
+        for vid in sorted(results):
+            r = results[vid]
+            if _POSITION in r and _ANGLE in r:
+                x, y = r[_POSITION]
+                length, width = sizes.get(vid, (5.0, 1.8))
+                yield vid, x, y, r[_ANGLE], length, width, vid in collided
+
     # -- commands of the action leaves -------------------------------------------
     def present(self, vid: str) -> bool:
         """Whether *vid* is in the network now."""
@@ -318,11 +346,11 @@ class SumoSystem:
 
     def speed(self, vid: str) -> float:
         r = self.results.get(vid)
-        return float(r[_SPEED]) if r is not None else float(self._call(self._lib.vehicle.getSpeed, vid))
+        return float(r[_SPEED]) if r is not None and _SPEED in r else float(self._call(self._lib.vehicle.getSpeed, vid))
 
     def lane(self, vid: str) -> int:
         r = self.results.get(vid)
-        return int(r[_LANE_INDEX]) if r is not None else int(self._call(self._lib.vehicle.getLaneIndex, vid))
+        return int(r[_LANE_INDEX]) if r is not None and _LANE_INDEX in r else int(self._call(self._lib.vehicle.getLaneIndex, vid))
 
     def take_over(self, vid: str) -> None:
         """Remember *vid*'s modes before a leaf changes them, so that :meth:`release` restores them."""

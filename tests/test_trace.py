@@ -382,7 +382,7 @@ def test_a_signal_that_stops_existing_ends_in_the_trace_and_in_every_view() -> N
     import math
 
     from btgen_pytrees.run.plot import _signal_series
-    from btgen_pytrees.run.replay import _page_data
+    from btgen_pytrees.run.replay import replay_html
 
     registry = default_registry()
     registry.register_system(PassingType())
@@ -399,7 +399,8 @@ def test_a_signal_that_stops_existing_ends_in_the_trace_and_in_every_view() -> N
                                          (0.9, ENDED)]  # fmt: skip
     assert trace.to_data()["signals"]["car.speed"] == [[2, 2.0], [3, 3.0], [4, 4.0], [5], [7, 7.0], [8, 8.0], [9]]
     loaded = btgen_pytrees.load(data, registry=registry)
-    page = _page_data(report, loaded, trace, [], [], None)
+    html = replay_html(report, loaded, btgen_pytrees.generate(loaded, registry=registry)).decode()
+    page = json.loads(html.split('<script type="application/json" id="run-data">')[1].split("</script>")[0])
     assert page["signals"]["car.speed"] == [[2, 2.0], [3, 3.0], [4, 4.0], [5], [7, 7.0], [8, 8.0], [9]]
     from btgen_pytrees.run.export import signal_table
 

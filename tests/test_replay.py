@@ -265,7 +265,6 @@ class _PassingType:
         return _Passing()
 
 
-@needs_dot
 @needs_chromium
 def test_browser_a_signal_that_ended_has_no_value_and_its_curve_a_gap(tmp_path: pathlib.Path) -> None:
     from selenium.webdriver.common.keys import Keys

@@ -23,8 +23,10 @@ from .leaves import FactoryError, PluginError, Registry, default_registry
 from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
 from .overlap import warning_lines
+from .progress import terminal_progress
 from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, JSON_INDENT_LIMIT, GraphvizMissing, render_chunks
+from .render.dot import png_depth
 from .systems import SystemSpec
 from .sweep.case import has_variations
 from .sweep.command import Refused
@@ -314,11 +316,14 @@ def cmd_show(args: argparse.Namespace) -> int:
     case = load(args.file, registry=registry)
     for line in warning_lines(case):
         _err(line)
+    root = generate(case, registry=registry)
     try:  # the text views are drawn while they are written (render_chunks)
-        chunks = render_chunks(generate(case, registry=registry), timeline(case), fmt, max_depth=args.max_depth,
-                               indent=args.indent)  # fmt: skip
+        chunks = render_chunks(root, timeline(case), fmt, max_depth=args.max_depth, indent=args.indent)
     except GraphvizMissing as missing:  # svg/png without Graphviz: a hint, not a traceback
         raise UsageError(str(missing)) from None
+    if fmt == "png" and args.max_depth is None and png_depth(root) is not None:  # collapsed to stay readable: say so
+        _err(f"{args.file}: {sum(1 for _ in root.iterate())} nodes cannot be read in one PNG: drawn down to depth "
+             f"{png_depth(root)} (deeper subtrees are '… N more nodes' boxes); choose with --max-depth N, or use .svg")
     if args.output is None or args.output == "-":
         _write_stdout(chunks, fmt)
     else:
@@ -468,7 +473,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         _err(line)
     logged = _btlog_tree(args, case, registry)
     trace = (lambda line: _err(line)) if args.trace else None
-    report = run(case, registry=registry, trace=trace, require_complete=args.require_complete or None)
+    progress = None if args.trace else terminal_progress(case.name, case.timeout, sys.stderr)  # a terminal's line only
+    try:
+        report = run(case, registry=registry, trace=trace, require_complete=args.require_complete or None,
+                     progress=progress)  # fmt: skip
+    finally:
+        if progress is not None:
+            progress.done()
     outputs: list[tuple[str, str | bytes]] = []
     if args.json:
         outputs.append((args.json, report.to_json()))
@@ -584,7 +595,7 @@ def _parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", parents=[plugin, many], help="run the tree against its system (default: the virtual-clock simulator) and print verdicts")
     run.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
-    run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json)")
+    run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json; a sweep's: schemas/sweep-report.schema.json)")
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML (several files: one file, a testsuite per case)")
     run.add_argument("--require-complete", action="store_true",
                      help="fail a run that passes before every entry has run to success (as the case key require_complete)")

@@ -125,7 +125,33 @@ def schema_for(registry: Registry | None = None) -> dict[str, Any]:
             (entry_rules if kind in ("behavior", "constraint") else criterion_rules).append({"if": rule_if, "then": then})
     full["$defs"]["entry"].setdefault("allOf", []).extend(entry_rules)
     full["$defs"]["criterion"].setdefault("allOf", []).extend(criterion_rules)
+    # a sweep's "$name" stands for a number or a boolean where the loader substitutes it (docs/sweeps.md):
+    # tick, timeout, signals' values, params, a criterion's from/to/at - so editors accept the project's sweeps
+    full["$defs"]["parameter"] = {"type": "string", "pattern": "^[$][A-Za-z_][A-Za-z0-9_]*$",
+                                  "description": "A sweep parameter, $name: replaced by its value before the case is checked."}  # fmt: skip
+    for key in ("tick", "timeout", "signals"):
+        full["properties"][key] = _or_parameter(full["properties"][key])
+    full["$defs"]["seconds"] = _or_parameter(full["$defs"]["seconds"])
+    for rule in entry_rules + criterion_rules:
+        rule["then"]["properties"]["params"] = _or_parameter(rule["then"]["properties"]["params"])
     return full
+
+
+_NOT_SCHEMAS = frozenset({"enum", "const", "default", "examples", "required", "description", "pattern", "$comment"})
+
+
+def _or_parameter(schema: Any) -> Any:
+    """*schema* where every number, integer or boolean may also be a sweep parameter ``"$name"``."""
+    if isinstance(schema, list):
+        return [_or_parameter(item) for item in schema]
+    if not isinstance(schema, dict):
+        return schema
+    made = {key: value if key in _NOT_SCHEMAS else _or_parameter(value) for key, value in schema.items()}
+    types = schema.get("type")
+    types = [types] if isinstance(types, str) else types if isinstance(types, list) else []
+    if any(t in ("number", "integer", "boolean") for t in types):
+        return {"anyOf": [made, {"$ref": "#/$defs/parameter"}]}
+    return made
 
 
 def inline_refs(node: Any, root: Mapping[str, Any], depth: int = 0) -> Any:

@@ -5,8 +5,8 @@
     python docs/pictures.py replay     # only the replay screenshots (needs selenium, chromium, chromium-driver)
 
 The 500-entry case of the pictures and of the tests is :func:`timeline_case`:
-a chain of 100 ramps and holds with four side branches each, ``R1`` (a record)
-and ``F1`` (a final) that pass, ``mode`` and ``level`` signals.
+a chain of 100 ramps of ``level``, each with four side branches (a wait,
+three holds), ``R1`` (a record) and ``F1`` (a final) that pass.
 """
 
 from __future__ import annotations
@@ -28,19 +28,19 @@ def timeline_case(n: int = 500) -> dict[str, Any]:
         after = [f"E{g - 1}"] if g else []
         entries.append({"id": head, "kind": "behavior", "action": "ramp", "after": after,
                         "params": {"signal": "level", "to": g % 7, "duration": 0.2}})  # fmt: skip
-        for b in range(4):
-            entries.append({"id": f"E{g}_{b}", "kind": "behavior" if b else "constraint",
-                            "action": "set" if b else "wait", "after": [head],
-                            "params": {"signal": "mode", "value": b} if b else {"duration": 0.1}})  # fmt: skip
+        for b in range(4):  # a wait and three holds: only the chain writes a signal (no overlap warning)
+            action, params = ("wait", {"duration": 0.1}) if b == 0 else ("hold", {"duration": 0.1 * b})
+            entries.append({"id": f"E{g}_{b}", "kind": "constraint" if b == 0 else "behavior", "action": action,
+                            "after": [head], "params": params})  # fmt: skip
     return {
         "name": f"timeline_{n}",
-        "signals": {"level": 0, "mode": 0},
+        "signals": {"level": 0},
         "tick": 0.1,
         "timeout": n,
         "execute": entries,
         "oracle": {"criteria": [
             {"id": "R1", "type": "record", "expect": "level <= 10", "name": "level stays low"},
-            {"id": "F1", "type": "final", "expect": "mode >= 0"},
+            {"id": "F1", "type": "final", "expect": "level >= 0"},
         ]},  # fmt: skip
     }
 

@@ -76,3 +76,47 @@ def test_show_indent_overrides_the_size_rule_both_ways(tmp_path: pathlib.Path) -
     assert result.returncode == 0, result.stderr
     assert (out / "large.json").read_text() == _dumps(data, 3)
     assert (out / "fig1.json").read_text() == _dumps(tree_data(btgen_pytrees.generate(btgen_pytrees.load(FIG1))), 3)
+
+
+# -- issue 23 item 10: a big tree as a PNG stays readable ------------------------------------------------
+
+
+def _png_size(data: bytes) -> tuple[int, int]:
+    import struct
+
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", data[16:24])  # type: ignore[return-value]
+
+
+def test_png_of_a_500_entry_case_is_collapsed_readably_and_says_so(tmp_path: pathlib.Path) -> None:
+    """It used to be a 32,767 x 229 px image (Graphviz's limit, text scaled to nothing) and no word about it."""
+    import os
+    import shutil
+
+    if shutil.which("dot") is None and not os.environ.get("CI"):
+        pytest.skip("needs Graphviz (CI installs it)")
+    sys.path.insert(0, str(ROOT / "docs"))
+    from pictures import timeline_case
+
+    from btgen_pytrees.render.dot import PNG_MAX_NODES, png_depth
+    from btgen_pytrees.render.info import walk
+
+    source = tmp_path / "timeline_500.json"
+    source.write_text(json.dumps(timeline_case()), encoding="utf-8")
+    out = tmp_path / "big.png"
+    done = cli(str(source), "-o", str(out))
+    assert done.returncode == 0, done.stderr
+    root = btgen_pytrees.generate(btgen_pytrees.load(timeline_case()))
+    depth = png_depth(root)
+    assert depth is not None and sum(1 for d, _ in walk(root) if d <= depth) <= PNG_MAX_NODES
+    assert done.stderr.splitlines() == [f"{source}: {_count(root)} nodes cannot be read in one PNG: drawn down to depth "
+                                        f"{depth} (deeper subtrees are '… N more nodes' boxes); choose with --max-depth"
+                                        " N, or use .svg"]  # fmt: skip
+    width, height = _png_size(out.read_bytes())
+    assert width < 32767 and height > 800  # not squeezed to Graphviz's limit: 96 dpi, 10 pt text
+    chosen = tmp_path / "chosen.png"
+    done = cli(str(source), "-o", str(chosen), "--max-depth", "3")
+    assert done.returncode == 0 and done.stderr == ""  # the user chose: no note
+    small = tmp_path / "fig1.png"
+    done = cli(str(FIG1), "-o", str(small))
+    assert done.returncode == 0 and done.stderr == ""  # a small tree: whole, no note

@@ -45,10 +45,10 @@ from py_trees.decorators import Decorator
 
 from ..errors import printable, xml_safe
 from ..leaves.wiring import Trigger
-from .info import annotation, is_selected, role, type_name, walk
+from .info import annotation, depth_for, is_selected, role, type_name, walk
 
 __all__ = [
-    "dot_graph", "dot_source", "graphviz_render", "GraphvizMissing", "GraphvizTimeout", "GRAPHVIZ_TIMEOUT", "IMAGE_FORMATS", "STYLES",
+    "dot_graph", "dot_source", "png_depth", "PNG_MAX_NODES", "graphviz_render", "GraphvizMissing", "GraphvizTimeout", "GRAPHVIZ_TIMEOUT", "IMAGE_FORMATS", "STYLES",
     "format_dot", "format_svg", "format_png",
 ]  # fmt: skip
 
@@ -297,5 +297,17 @@ def format_svg(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth:
     return xml_safe(graphviz_render(dot_source(root, max_depth=max_depth), "svg").decode("utf-8"))
 
 
+PNG_MAX_NODES = 150
+"""Most nodes a PNG shows without ``--max-depth``: past that, Graphviz's image would outgrow its
+32,767-pixel limit and be scaled down until no text can be read (a 500-entry case: 32,767 x 229 px)."""
+
+
+def png_depth(root: py_trees.behaviour.Behaviour, max_depth: int | None = None) -> int | None:
+    """The depth a PNG of *root* is drawn to: *max_depth* when given, else the deepest depth that
+    shows at most :data:`PNG_MAX_NODES` nodes (``None``: the whole tree)."""
+    return max_depth if max_depth is not None else depth_for(root, PNG_MAX_NODES)
+
+
 def format_png(root: py_trees.behaviour.Behaviour, graph: nx.DiGraph, max_depth: int | None = None, **_: Any) -> bytes:
-    return graphviz_render(dot_source(root, max_depth=max_depth), "png")
+    """The PNG picture; a tree over :data:`PNG_MAX_NODES` nodes is collapsed by :func:`png_depth` unless *max_depth* says."""
+    return graphviz_render(dot_source(root, max_depth=png_depth(root, max_depth)), "png")

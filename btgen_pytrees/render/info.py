@@ -7,6 +7,7 @@ predecessors.
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import Any, Iterator
 
 import py_trees
@@ -15,7 +16,7 @@ from py_trees.decorators import Decorator
 
 from ..leaves.wiring import Completion, OrMember, RunStart, TreeRoot, Trigger, WakingParallel
 
-__all__ = ["node_info", "walk", "symbol", "policy_name", "annotation", "role", "role_of", "selected", "is_selected", "type_name"]
+__all__ = ["node_info", "walk", "depth_for", "symbol", "policy_name", "annotation", "role", "role_of", "selected", "is_selected", "type_name"]
 
 
 def walk(root: py_trees.behaviour.Behaviour) -> Iterator[tuple[int, py_trees.behaviour.Behaviour]]:
@@ -25,6 +26,26 @@ def walk(root: py_trees.behaviour.Behaviour) -> Iterator[tuple[int, py_trees.beh
         depth, node = stack.pop()
         yield depth, node
         stack.extend((depth + 1, child) for child in reversed(node.children))
+
+
+def depth_for(root: py_trees.behaviour.Behaviour, max_nodes: int) -> int | None:
+    """The deepest ``max_depth`` that shows at most *max_nodes* nodes (``None``: the whole tree fits).
+
+    >>> from btgen_pytrees import generate, load
+    >>> root = generate(load("examples/fig1.json"))  # 27 nodes; 1, 2, 3 and 5 at depths 0 to 3
+    >>> depth_for(root, 100), depth_for(root, 10)
+    (None, 2)
+    """
+    depths = Counter(depth for depth, _ in walk(root))
+    if sum(depths.values()) <= max_nodes:
+        return None
+    total, depth = 0, 0
+    for d in sorted(depths):
+        total += depths[d]
+        if total > max_nodes:
+            break
+        depth = d
+    return depth
 
 
 def selected(node: py_trees.behaviour.Behaviour) -> list[py_trees.behaviour.Behaviour] | None:

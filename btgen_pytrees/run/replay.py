@@ -35,7 +35,6 @@ import html
 import json
 import math
 import re
-from collections import Counter
 from typing import Any, Sequence
 
 import py_trees
@@ -45,7 +44,7 @@ from py_trees.decorators import Decorator
 
 from ..model import TestCase
 from ..render.dot import STYLES
-from ..render.info import annotation, role, type_name, walk
+from ..render.info import annotation, depth_for, role, type_name, walk
 from .export import select
 from .report import Report
 from .trace import ENDED
@@ -58,16 +57,7 @@ MAX_NODES = 100
 
 def auto_depth(root: py_trees.behaviour.Behaviour, max_nodes: int = MAX_NODES) -> int | None:
     """The deepest ``max_depth`` that draws at most *max_nodes* nodes (``None``: the whole tree fits)."""
-    depths = Counter(depth for depth, _ in walk(root))
-    if sum(depths.values()) <= max_nodes:
-        return None
-    total, depth = 0, 0
-    for d in sorted(depths):
-        total += depths[d]
-        if total > max_nodes:
-            break
-        depth = d
-    return depth
+    return depth_for(root, max_nodes)
 
 
 def _script_json(data: Any) -> str:

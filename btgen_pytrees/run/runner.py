@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from numbers import Real
-from typing import Any
+from typing import Any, Callable
 
 import py_trees
 from py_trees.common import Status
@@ -78,6 +78,7 @@ def run_tree(
     registry: Registry | None = None,
     trace: Trace | None = None,
     require_complete: bool | None = None,
+    progress: Callable[[int, float], None] | None = None,
 ) -> Report:
     """Run *root* (generated from *case*) against *system* until it finishes or times out.
 
@@ -91,6 +92,8 @@ def run_tree(
         trace: called with one line per entry start/end
         require_complete: a run that passes while entries are unfinished fails
             instead (default: the case's ``require_complete``)
+        progress: called after every tick with the number of ticks done and the
+            run time (``run``'s terminal line, :mod:`btgen_pytrees.progress`)
     """
     if system is None:
         system = create_system(case, registry)
@@ -131,6 +134,8 @@ def run_tree(
             collector.finalise()
             if scene is not None:
                 scene.record(k, places())
+            if progress is not None:
+                progress(k + 1, then)
             if root.status in _DONE:
                 break
             if k < last:
@@ -166,7 +171,7 @@ def run_tree(
 
 
 def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None,
-        require_complete: bool | None = None) -> Report:  # fmt: skip
+        require_complete: bool | None = None, progress: Callable[[int, float], None] | None = None) -> Report:  # fmt: skip
     """Generate *case*'s tree, run it against its system and return the :class:`Report`."""
     registry = registry if registry is not None else default_registry()
     try:
@@ -182,7 +187,7 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
             raise
         return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}",
                       source=case.source)
-    return run_tree(root, case, system=system, trace=trace, require_complete=require_complete)
+    return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress)
 
 
 def _system_time(case: TestCase, system: System, then: float) -> float:

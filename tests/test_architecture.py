@@ -32,6 +32,7 @@ LAYERS: dict[str, int] = {
     "btgen_pytrees.expressions": 0,
     "btgen_pytrees.clock": 0,
     "btgen_pytrees.output": 0,
+    "btgen_pytrees.progress": 0,
     "btgen_pytrees.validation": 0,
     "btgen_pytrees.model": 0,
     # L1: contracts and algorithms that know no leaf, system or view

@@ -80,7 +80,7 @@ def import_seconds() -> float:
 
     code = "import time; t = time.perf_counter(); import libsumo; print(time.perf_counter() - t)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
-    return float(done.stdout.strip())
+    return float(done.stdout.split()[-1])  # the last line: libsumo may print a pyarrow version warning first
 
 
 def report_text(rows: Sequence[dict[str, Any]], imported: float | None, clock: str) -> str:

@@ -412,8 +412,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if files is not None:
         if args.json or args.trace:
             raise UsageError("--json/--trace take one file; with several use --out-dir (a report per file)")
-        if args.replay or args.btlog or args.signals_out:
-            raise UsageError("--replay/--btlog/--signals-out take one file")
+        if args.replay or args.btlog or args.signals_out or args.signals:
+            raise UsageError("--replay/--btlog/--signals-out/--signals take one file")
         plot = None
         if args.plot:
             if not args.out_dir:
@@ -462,8 +462,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if has_variations(data):  # a sweep: every variation (btgen_pytrees.sweep)
         from .sweep.command import run_sweep
 
-        if args.replay or args.btlog or args.signals_out:
-            raise UsageError("--replay/--btlog/--signals-out take one case, not a sweep's variations")
+        if args.replay or args.btlog or args.signals_out or args.signals:
+            raise UsageError("--replay/--btlog/--signals-out/--signals take one case, not a sweep's variations")
 
         return run_sweep(args, data, _system(args))
     registry = _registry(args)

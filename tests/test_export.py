@@ -170,6 +170,12 @@ def test_cli_signals_out_refuses_a_bad_name_before_the_run(tmp_path: pathlib.Pat
     assert captured.out == "" and captured.err.count("\n") == 1 and ".csv or .parquet" in captured.err
     assert main(["run", FAILING, FAILING, "--signals-out", str(tmp_path / "x.csv")]) == 2
     assert "take one file" in capsys.readouterr().err
+    # --signals chooses for one run's views; a batch or a sweep would ignore it: refused, not ignored
+    assert main(["run", FAILING, FAILING, "--out-dir", str(tmp_path / "o"), "--plot", "svg", "--signals", "s*"]) == 2
+    assert "take one file" in capsys.readouterr().err
+    sweep = str(ROOT / "examples" / "fig1_sweep.json")
+    assert main(["run", sweep, "--signals", "speed"]) == 2
+    assert "not a sweep's variations" in capsys.readouterr().err
 
 
 def test_cli_parquet_without_pyarrow_is_a_hint(tmp_path: pathlib.Path, capsys: Any, monkeypatch: Any) -> None:

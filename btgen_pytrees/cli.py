@@ -10,6 +10,7 @@ and nothing is written.
 from __future__ import annotations
 
 import argparse
+import fnmatch
 import os
 import signal
 import sys
@@ -480,6 +481,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     finally:
         if progress is not None:
             progress.done()
+    if args.signals and report.trace is not None:  # a typo would quietly draw nothing (globs as run.export.select)
+        for pattern in args.signals:
+            if not any(fnmatch.fnmatchcase(name, pattern) for name in report.trace.signals):
+                _err(f"btgen_pytrees: warning: --signals {pattern!r} matches no signal of the run")
     outputs: list[tuple[str, str | bytes]] = []
     if args.json:
         outputs.append((args.json, report.to_json()))

@@ -176,6 +176,11 @@ def test_cli_signals_out_refuses_a_bad_name_before_the_run(tmp_path: pathlib.Pat
     sweep = str(ROOT / "examples" / "fig1_sweep.json")
     assert main(["run", sweep, "--signals", "speed"]) == 2
     assert "not a sweep's variations" in capsys.readouterr().err
+    out = tmp_path / "few.csv"
+    assert main(["run", FAILING, "--signals-out", str(out), "--signals", "sped", "--signals", "speed"]) == 1
+    err = capsys.readouterr().err
+    assert err == "btgen_pytrees: warning: --signals 'sped' matches no signal of the run\n"
+    assert out.read_text(encoding="utf-8").splitlines()[0].startswith("tick,time,speed,status:")
 
 
 def test_cli_parquet_without_pyarrow_is_a_hint(tmp_path: pathlib.Path, capsys: Any, monkeypatch: Any) -> None:

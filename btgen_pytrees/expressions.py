@@ -33,12 +33,14 @@ from __future__ import annotations
 import ast
 import keyword
 import math
+import operator
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
-__all__ = ["Expression", "ExpressionError", "parse", "why_false", "bounds", "RESERVED", "MAX_LENGTH"]
+__all__ = ["Expression", "ExpressionError", "parse", "why_false", "bounds", "conjunction", "disjunction", "RESERVED",
+           "MAX_LENGTH"]  # fmt: skip
 
 MAX_LENGTH = 1000
 """Longest accepted expression, in characters (keeps parsing and products bounded)."""
@@ -113,6 +115,54 @@ class Expression:
             return eval(self._code, {"__builtins__": {}}, scope)  # noqa: S307 - checked AST
         except (ArithmeticError, TypeError, ValueError) as exc:
             raise ExpressionError(f"{exc} in {self.source!r}") from None
+
+    def judge(self, values: Mapping[str, Any]) -> tuple[bool, float]:
+        """Whether the expression holds for *values*, and by how much: ``(truth, margin)``.
+
+        *truth* is ``bool(evaluate(values))``, raising exactly when :meth:`evaluate` raises.
+        *margin* is the expression's robustness in the quantitative semantics of signal
+        temporal logic: > 0 it holds with room to spare, < 0 it is false by that much, 0 on
+        the boundary; its sign never contradicts *truth* (0 may go either way):
+
+        * ``a <= b``, ``a < b``: ``b - a``; ``a >= b``, ``a > b``: ``a - b``;
+          ``a == b``: ``-|a - b|`` (0 when it holds, never positive); ``a != b``: ``|a - b|``
+          (0 when it is false); a chain ``a < b < c``: the smallest of its links;
+        * ``&&``: the smallest operand margin, ``||``: the largest, ``!``: the negation;
+        * anything else used as a truth value (a bare signal, ``true``, a function's result):
+          ``+inf`` when truthy, ``-inf`` when not - a boolean has no distance to the boundary;
+        * booleans count as 0 and 1 in a comparison; a comparison whose sides have no
+          finite difference (a NaN side, ``inf - inf``) is 0 when the sides are equal,
+          else ``+inf``/``-inf`` by its truth;
+        * an operand that ``&&``/``||`` skips (Python's short-circuit) and that cannot be
+          evaluated (``x > 0 && 1/x > 2`` with ``x = 0``) is left out: the margin is that of
+          the operands that decided.
+
+        >>> parse("speed <= 30").judge({"speed": 32.5})
+        (False, -2.5)
+        >>> parse("0 <= x < 5 && brake == 0").judge({"x": 1, "brake": 0})
+        (True, 0.0)
+        >>> parse("a > 1 || !flag").judge({"a": 3, "flag": True})
+        (True, 2.0)
+        """
+        missing = [n for n in self.names if n not in values]
+        if missing:
+            raise ExpressionError(f"signal {sorted(missing)[0]!r} has no value")
+        judge, scoped = self._judge
+        scope = None
+        if scoped:
+            scope = {**FUNCTIONS, **values}
+            for alias, name in self._aliases:
+                scope[alias] = values[name]
+        truth, margin = judge(values, scope)
+        return truth, margin + 0.0  # -0.0 is 0
+
+    @cached_property
+    def _judge(self) -> tuple[_Judge, bool]:
+        """The robustness evaluator of this expression (built on first use) and whether it needs a scope."""
+        aliases: dict[str, str] = {}
+        tree = ast.parse(_translate(self.source, aliases).strip(), mode="eval")
+        plan = _Plan(self.source, {alias: name for name, alias in aliases.items()})
+        return plan.logic(tree.body), plan.scoped
 
 
 def _translate(text: str, aliases: dict[str, str]) -> str:
@@ -231,6 +281,188 @@ def _number_of(node: ast.expr) -> float | None:
     if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
         return float(node.value)
     return None
+
+
+# -- robustness (Expression.judge) ----------------------------------------------------------------
+
+_Judge = Callable[[Mapping[str, Any], Any], "tuple[bool, float]"]
+_Get = Callable[[Mapping[str, Any], Any], Any]
+_INF = math.inf
+_LINKS: dict[type, tuple[Callable[[Any, Any], Any], Callable[[Any, Any], Any]]] = {
+    ast.Lt: (operator.lt, lambda a, b: b - a), ast.LtE: (operator.le, lambda a, b: b - a),
+    ast.Gt: (operator.gt, lambda a, b: a - b), ast.GtE: (operator.ge, lambda a, b: a - b),
+    ast.Eq: (operator.eq, lambda a, b: -abs(a - b)), ast.NotEq: (operator.ne, lambda a, b: abs(a - b)),
+}  # fmt: skip
+"""Per comparison operator: its truth, and its robustness (signed distance to the boundary)."""
+
+
+def _link_margin(distance: Callable[[Any, Any], Any], holds: bool, a: Any, b: Any) -> float:
+    """The margin of one comparison ``a OP b`` whose truth is *holds*."""
+    try:
+        d = float(distance(a, b))
+    except (ArithmeticError, TypeError, ValueError):  # no difference (not numbers, or too large for a float)
+        return _INF if holds else -_INF
+    if d != d:  # NaN: inf - inf, or a side that is NaN
+        try:
+            return 0.0 if a == b else _INF if holds else -_INF
+        except (ArithmeticError, TypeError, ValueError):
+            return _INF if holds else -_INF
+    if (d < 0.0) if holds else (d > 0.0):  # rounding never flips a sign; keep it so whatever the numbers
+        return 0.0
+    return d
+
+
+class _Plan:
+    """Builds an expression's robustness evaluator from its checked tree: a closure per node.
+
+    The logical layer (``and``/``or``/``not``, comparisons) becomes closures that return
+    ``(truth, margin)``; every other node (an operand, an atom) is evaluated as Python
+    evaluates it - a signal read straight from the values, a constant folded, anything
+    else compiled - so the truth is the one :meth:`Expression.evaluate` gives.
+    """
+
+    def __init__(self, source: str, dotted: Mapping[str, str]):
+        self.source = source
+        self.dotted = dotted
+        self.scoped = False
+
+    def logic(self, node: ast.expr) -> _Judge:
+        if isinstance(node, ast.BoolOp):
+            return self._boolean([self.logic(v) for v in node.values], isinstance(node.op, ast.And))
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not):
+            inner = self.logic(node.operand)
+
+            def negation(values: Mapping[str, Any], scope: Any) -> tuple[bool, float]:
+                truth, margin = inner(values, scope)
+                return not truth, -margin
+
+            return negation
+        if isinstance(node, ast.Compare):
+            return self._compare(node)
+        get = self.value(node)
+
+        def atom(values: Mapping[str, Any], scope: Any) -> tuple[bool, float]:
+            truth = bool(get(values, scope))
+            return truth, _INF if truth else -_INF
+
+        return atom
+
+    @staticmethod
+    def _boolean(parts: list[_Judge], conjunctive: bool) -> _Judge:
+        pick = min if conjunctive else max
+
+        def judge(values: Mapping[str, Any], scope: Any) -> tuple[bool, float]:
+            decided = False  # the truth is known: the operands left are evaluated for their margins only
+            truth = conjunctive
+            margins = []
+            for part in parts:
+                if not decided:
+                    truth, margin = part(values, scope)
+                    decided = truth is not conjunctive
+                else:
+                    try:
+                        margin = part(values, scope)[1]
+                    except ExpressionError:  # Python would not have evaluated it
+                        continue
+                margins.append(margin)
+            return truth, pick(margins)
+
+        return judge
+
+    def _compare(self, node: ast.Compare) -> _Judge:
+        gets = [self.value(node.left), *(self.value(c) for c in node.comparators)]
+        links = [_LINKS[type(op)] for op in node.ops]
+        source = self.source
+        if len(links) == 1:  # the usual case, e.g. speed <= 30: no loop
+            (get_a, get_b), (test, distance) = gets, links[0]
+
+            def single(values: Mapping[str, Any], scope: Any) -> tuple[bool, float]:
+                a, b = get_a(values, scope), get_b(values, scope)
+                try:
+                    holds = bool(test(a, b))
+                except (ArithmeticError, TypeError, ValueError) as exc:
+                    raise ExpressionError(f"{exc} in {source!r}") from None
+                return holds, _link_margin(distance, holds, a, b)
+
+            return single
+
+        def chain(values: Mapping[str, Any], scope: Any) -> tuple[bool, float]:
+            truth = True
+            low = _INF
+            a = gets[0](values, scope)
+            for get, (test, distance) in zip(gets[1:], links):
+                if truth:
+                    b = get(values, scope)
+                    try:
+                        holds = bool(test(a, b))
+                    except (ArithmeticError, TypeError, ValueError) as exc:
+                        raise ExpressionError(f"{exc} in {source!r}") from None
+                    truth = holds
+                else:  # Python stopped at the first false link: the rest only for the margin
+                    try:
+                        b = get(values, scope)
+                        holds = bool(test(a, b))
+                    except (ExpressionError, ArithmeticError, TypeError, ValueError):
+                        break
+                low = min(low, _link_margin(distance, holds, a, b))
+                a = b
+            return truth, low
+
+        return chain
+
+    def value(self, node: ast.expr) -> _Get:
+        """A function giving *node*'s value as Python computes it."""
+        if isinstance(node, ast.Name) and node.id not in FUNCTIONS:
+            name = self.dotted.get(node.id, node.id)
+            return lambda values, scope: values[name]
+        code = compile(ast.Expression(node), "<expect>", "eval")
+        if not any(isinstance(n, ast.Name) and n.id not in FUNCTIONS for n in ast.walk(node)):
+            try:  # a constant (-5, 2 * 3, max(1, 2)): computed once
+                constant = eval(code, {"__builtins__": {}}, dict(FUNCTIONS))  # noqa: S307 - checked AST
+            except (ArithmeticError, TypeError, ValueError, RecursionError):
+                pass  # 1 / 0: raises at every evaluation, as evaluate() does
+            else:
+                return lambda values, scope: constant
+        self.scoped = True
+        source = self.source
+
+        def computed(values: Mapping[str, Any], scope: Any) -> Any:
+            try:
+                return eval(code, {"__builtins__": {}}, scope)  # noqa: S307 - a checked sub-tree
+            except (ArithmeticError, TypeError, ValueError) as exc:
+                raise ExpressionError(f"{exc} in {source!r}") from None
+
+        return computed
+
+
+def conjunction(margins: Iterable[float | None]) -> float | None:
+    """The margin of an AND of parts with these margins: their minimum; None (unknown) stays unknown
+    unless a known part already decides (is below 0). None when there are no parts.
+
+    >>> conjunction([2.0, -1.0]), conjunction([2.0, None]), conjunction([-1.0, None]), conjunction([])
+    (-1.0, None, -1.0, None)
+    """
+    seen = list(margins)
+    known = [m for m in seen if m is not None]
+    if not known:
+        return None
+    low = min(known)
+    return None if len(known) < len(seen) and low >= 0 else low
+
+
+def disjunction(margins: Iterable[float | None]) -> float | None:
+    """The margin of an OR of parts with these margins: their maximum; None (unknown) stays unknown
+    unless a known part already decides (is above 0). None when there are no parts.
+
+    >>> disjunction([2.0, -1.0]), disjunction([-1.0, None]), disjunction([2.0, None]), disjunction([])
+    (2.0, None, 2.0, None)
+    """
+    seen = list(margins)
+    known = [m for m in seen if m is not None]
+    if not known:
+        return None
+    high = max(known)
+    return None if len(known) < len(seen) and high <= 0 else high
 
 
 # -- why an expression is false -------------------------------------------------------------------

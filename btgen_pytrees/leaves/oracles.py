@@ -14,6 +14,14 @@ Semantics (times are seconds since the run's first tick):
   succeeds at the end of the window, fails at the first violation.
 * ``final`` - evaluated once, at ``at`` or, without it, when the execute
   subtree has finished.
+
+Each also keeps its *margin* (:attr:`Outcome.margin`), the robustness of
+signal temporal logic: the expression's margin on each tick it judged
+(:meth:`~btgen_pytrees.expressions.Expression.judge`), and for ``record`` and
+``period`` the minimum over those ticks (``always``); ``final`` judges one tick.
+A tick on which the expression could not be evaluated (a signal without a
+value) has no margin: the criterion fails on it, and its margin is unknown
+(None) unless an earlier tick had already gone below 0.
 """
 
 from __future__ import annotations
@@ -24,7 +32,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from ..expressions import ExpressionError, why_false
+from ..expressions import ExpressionError, conjunction, why_false
 from ..model import Criterion
 from .environment import Environment
 from .simulated import reached
@@ -41,12 +49,14 @@ class Outcome:
         at: run time of the verdict (or of the last evaluation)
         message: why, for people
         values: the signal values it read at that time
+        margin: the robustness over the ticks judged so far (None: none judged, or unknown)
     """
 
     verdict: str = "inconclusive"
     at: float | None = None
     message: str = ""
     values: dict[str, Any] = field(default_factory=dict)
+    margin: float | None = None
 
 
 MAX_SAMPLES = 1000
@@ -64,10 +74,12 @@ class Oracle(py_trees.behaviour.Behaviour):
         self.env = env
         self.outcome = Outcome()
         self.samples: list[tuple[float, dict[str, Any]]] = []
+        self.judged = 0  # ticks judged in this run
 
     def initialise(self) -> None:
         self.outcome = Outcome()
         self.samples = []
+        self.judged = 0
 
     def check(self, now: float) -> bool:
         """Evaluate ``expect`` now; remember the values; on failure record the outcome."""
@@ -75,12 +87,16 @@ class Oracle(py_trees.behaviour.Behaviour):
         values = self.env.values(expect.ordered_names)
         if (not self.samples or self.samples[-1][1] != values) and len(self.samples) < MAX_SAMPLES:
             self.samples.append((now, values))
+        margin: float | None
         try:
-            ok = bool(expect.evaluate(values))
+            ok, margin = expect.judge(values)
             message = "" if ok else why_false(expect, values) or f"{expect.source} is false"
         except ExpressionError as exc:
-            ok, message = False, str(exc)
-        self.outcome = Outcome("inconclusive" if ok else "fail", now, message, values)
+            ok, margin, message = False, None, str(exc)
+        if self.judged:  # always: the minimum over the ticks judged
+            margin = conjunction((self.outcome.margin, margin))
+        self.judged += 1
+        self.outcome = Outcome("inconclusive" if ok else "fail", now, message, values, margin)
         if not ok:
             shown = ", ".join(f"{k}={v!r}" for k, v in sorted(values.items()))
             self.outcome.message = f"{message} at {now:.6g} s ({shown})" if shown else f"{message} at {now:.6g} s"

@@ -26,6 +26,7 @@ them from the oracle leaves, which keep their own outcome.
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import py_trees
@@ -285,7 +286,8 @@ class Collector(py_trees.visitors.VisitorBase):
             oracles.append((criterion.index, OracleResult(
                 criterion.id, criterion.type, criterion.expect.source, outcome.verdict, outcome.at,
                 outcome.message, dict(outcome.values), list(getattr(node, "samples", [])),
-                name=criterion.name, group=group, relation=self.case.relation.get(group, "&&"))))  # fmt: skip
+                name=criterion.name, group=group, relation=self.case.relation.get(group, "&&"),
+                margin=_margin(getattr(outcome, "margin", None)))))  # fmt: skip
         oracles.sort(key=lambda pair: pair[0])
         if verdict == "fail" and not message:
             message = _why_failed(execute, [o for _, o in oracles])
@@ -299,6 +301,17 @@ class Collector(py_trees.visitors.VisitorBase):
             report.explanation = report.explanation or explain(report, self.root, self.env, criteria, self.last)
             report.tree = status_tree(self.root, self.last)
         return report
+
+
+def _margin(value: object) -> float | None:
+    """A margin as a float (a plugin's oracle may keep an int, or none at all)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        margin = float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+    return None if margin != margin else margin + 0.0
 
 
 def _why_failed(execute: list[EntryResult], oracles: list[OracleResult]) -> str:

@@ -12,10 +12,12 @@ JUnit ``<failure>``/``<error>`` bodies):
 * the **tree at the end** (:func:`status_tree`), each node with the last status
   it returned, in py_trees' unicode symbols.
 
-The margin rule (also in ``docs/semantics.md``): for a comparison ``a OP b``
-that is false, the margin is ``|a - b|``, the distance between the two sides
+The "false by" rule (also in ``docs/semantics.md``): for a comparison ``a OP b``
+that is false, the margin shown is ``|a - b|``, the distance between the two sides
 (for ``<``/``>`` it is the distance to the boundary, so ``x < 5`` with ``x = 5``
-is "false by 0"; for ``!=`` it is 0: the sides are equal). A chain ``a < b < c``
+is "false by 0"; for ``!=`` it is 0: the sides are equal) - the magnitude of the
+comparison's signed margin in the reports
+(:meth:`~btgen_pytrees.expressions.Expression.judge`). A chain ``a < b < c``
 is explained by its first false link; ``and`` by each false operand; ``or`` by
 every operand (all are false); anything else (``not``, a bare signal, a
 function's result) is "false" without a margin. Booleans count as 0 and 1.

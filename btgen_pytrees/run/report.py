@@ -9,17 +9,16 @@ import json
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Sequence
 
 from ..errors import xml_safe
+from ..expressions import conjunction, disjunction
+from ..model import label
 
 if TYPE_CHECKING:  # pragma: no cover
     from .trace import RunTrace
 
-from ..errors import xml_safe
-from ..model import label
-
-__all__ = ["EntryResult", "OracleResult", "Report"]
+__all__ = ["EntryResult", "OracleResult", "Report", "oracle_margin", "margin_text"]
 
 _UNFINISHED = {
     "running": ("entry still running", "entries still running"),
@@ -63,6 +62,12 @@ class OracleResult:
     ``group`` is ``record`` or ``others`` (Algorithm 2's groups) and ``relation``
     the group's ``&&``/``||``: a member of an ``||`` group may fail while its group,
     and the run, pass.
+
+    ``margin`` is the criterion's robustness (signal temporal logic's quantitative
+    semantics, ``docs/semantics.md``): > 0 held with room to spare, < 0 violated by
+    that much, 0 on the boundary; over the ticks it judged (``record``, ``period``:
+    the minimum; ``final``: its one tick). None when it judged no tick, or when a
+    signal it reads had no value.
     """
 
     id: str
@@ -76,10 +81,28 @@ class OracleResult:
     name: str = ""
     group: str = ""
     relation: str = "&&"
+    margin: float | None = None
 
     @property
     def label(self) -> str:
         return label(self.id, self.name)
+
+
+def oracle_margin(oracles: Sequence[OracleResult]) -> float | None:
+    """The margin of the whole oracle: each group's members combined by its relation
+    (``&&`` the minimum, ``||`` the maximum), then the groups by ``&&``.
+
+    An unknown margin (None) is left out where the known ones decide (a minimum below
+    0, a maximum above 0) and makes the result unknown otherwise. None without criteria.
+    """
+    groups: dict[str, list[OracleResult]] = {}
+    for o in oracles:
+        groups.setdefault(o.group, []).append(o)
+    margins = []
+    for members in groups.values():
+        combine = disjunction if members[0].relation == "||" else conjunction
+        margins.append(combine([o.margin for o in members]))
+    return conjunction(margins)
 
 
 @dataclass
@@ -114,6 +137,14 @@ class Report:
     @property
     def passed(self) -> bool:
         return self.verdict == "pass"
+
+    @property
+    def margin(self) -> float | None:
+        """The oracle's robustness: its criteria's margins combined by its ``&&``/``||`` tree
+        as min/max (:func:`oracle_margin`); < 0 when the oracle failed. None without criteria
+        or when unknown. The timeline is not part of it: a run whose entry failed fails
+        whatever its oracle's margin."""
+        return oracle_margin(self.oracles)
 
     @property
     def complete(self) -> bool:
@@ -162,7 +193,10 @@ class Report:
         for oracle in data["oracles"]:
             del oracle["samples"]
             oracle["values"] = {k: _json_value(v) for k, v in oracle["values"].items()}
-        ordered = {k: data[k] for k in ("test", "source", "verdict", "duration", "ticks", "message")}
+            oracle["margin"] = _json_value(oracle["margin"])
+        ordered = {k: data[k] for k in ("test", "source", "verdict")}
+        ordered["margin"] = _json_value(self.margin)
+        ordered.update((k, data[k]) for k in ("duration", "ticks", "message"))
         ordered["timeline"] = {"complete": self.complete, "message": self.incomplete}
         ordered["explanation"] = list(self.explanation)
         ordered["execute"] = [_name_second(e) for e in data["execute"]]
@@ -222,12 +256,16 @@ class Report:
         """
         suite = ET.Element("testsuite", name=self.test, tests=str(len(self.oracles) + 1), time=f"{self.duration:g}")
         counts = {"failure": 0, "error": 0, "skipped": 0}
+        if self.margin is not None:
+            _properties(suite, margin=self.margin)
 
         why = self.why()
 
-        def case(name: str, outcome: str, message: str, at: float | None, out: str = "") -> None:
+        def case(name: str, outcome: str, message: str, at: float | None, out: str = "", margin: float | None = None) -> None:
             el = ET.SubElement(suite, "testcase", classname=f"btgen.{self.test}", name=name,
                                time=f"{at:g}" if at is not None else "0")  # fmt: skip
+            if margin is not None:
+                _properties(el, margin=margin)
             if outcome in counts:
                 counts[outcome] += 1
                 body = message or outcome
@@ -252,13 +290,13 @@ class Report:
             name = f"{o.label} ({o.type}: {o.expect})"
             if not self.decisive(o):
                 note = f"{o.verdict}" + (f" at {o.at:g} s" if o.at is not None else "") + (f": {o.message}" if o.message else "")
-                case(name, "pass", "", o.at, f"{note}; not counted: its || group passed")
+                case(name, "pass", "", o.at, f"{note}; not counted: its || group passed", o.margin)
             elif o.verdict == "fail":
-                case(name, "failure", o.message or "failed", o.at)
+                case(name, "failure", o.message or "failed", o.at, margin=o.margin)
             elif o.verdict == "inconclusive":
-                case(name, "skipped", o.message or "undecided when the run ended", o.at)
+                case(name, "skipped", o.message or "undecided when the run ended", o.at, margin=o.margin)
             else:
-                case(name, "pass", "", o.at)
+                case(name, "pass", "", o.at, margin=o.margin)
         if self.verdict != "pass" and counts["failure"] + counts["error"] == 0:  # never green on a red run
             counts["error"] += 1
             el = suite.find("testcase")
@@ -283,6 +321,13 @@ class Report:
         return xml_safe(ET.tostring(root, encoding="unicode", xml_declaration=True)) + "\n"
 
 
+def _properties(element: ET.Element, **properties: float) -> None:
+    """JUnit ``<properties>`` (the first child, where JUnit readers look), one ``<property>`` each."""
+    holder = ET.SubElement(element, "properties")
+    for name, value in properties.items():
+        ET.SubElement(holder, "property", name=name, value=margin_text(value))
+
+
 def _json_value(value: Any) -> Any:
     """A signal value as JSON can hold it: infinity and NaN (a SUMO vehicle's ``gap`` without a
     leader is ``inf``) as the strings ``"inf"``, ``"-inf"``, ``"nan"``, like the replay page."""
@@ -292,7 +337,23 @@ def _json_value(value: Any) -> Any:
 
 
 def _name_second(item: dict[str, Any]) -> dict[str, Any]:
-    return {"id": item["id"], "name": item["name"], **{k: v for k, v in item.items() if k not in ("id", "name")}}
+    """``id`` and ``name`` first; ``margin`` right after ``verdict``."""
+    ordered = {"id": item["id"], "name": item["name"]}
+    for k, v in item.items():
+        if k not in ("id", "name", "margin"):
+            ordered[k] = v
+            if k == "verdict" and "margin" in item:
+                ordered["margin"] = item["margin"]
+    return ordered
+
+
+def margin_text(margin: float) -> str:
+    """A margin in text (JUnit properties): the shortest exact decimal, ``inf``, ``-inf``.
+
+    >>> margin_text(-2.4000000000000004), margin_text(0.0), margin_text(float("inf"))
+    ('-2.4000000000000004', '0.0', 'inf')
+    """
+    return repr(float(margin))
 
 
 def _time(t: float | None) -> str:

@@ -42,15 +42,11 @@ def margin_of(oracle: Any) -> float | None:
 
 
 def row_of(report: Any) -> dict[str, Any]:
-    """The sweep report's row for one run: verdict, why, when, each criterion's verdict (and margin)."""
+    """The sweep report's row for one run: verdict, margin (the report's: the oracle's robustness),
+    why, when, each criterion's verdict and margin."""
     oracles = []
     for o in report.oracles:
-        item: dict[str, Any] = {"id": o.id, "verdict": o.verdict, "at": o.at, "message": o.message}
-        margin = margin_of(o)
-        if margin is not None:
-            item["margin"] = margin
-        oracles.append(item)
-    margins = [o["margin"] for o in oracles if "margin" in o]
+        oracles.append({"id": o.id, "verdict": o.verdict, "margin": margin_of(o), "at": o.at, "message": o.message})
     failed = next((e for e in report.execute if e.status == "failure"), None)
     details = [f"{o['id']}: {o['message']}" for o in oracles if o["verdict"] == "fail" and o["message"]]
     if failed is not None:
@@ -61,7 +57,7 @@ def row_of(report: Any) -> dict[str, Any]:
         "message": why,
         "duration": report.duration,
         "ticks": report.ticks,
-        "margin": min(margins) if margins else None,
+        "margin": report.margin,
         "oracles": oracles,
     }
 

@@ -54,12 +54,24 @@ def _colours(report: SweepReport) -> tuple[list[Any], Any, Any]:
     margins = [r.get("margin") for r in report.rows]
     if not any(m is not None for m in margins):
         return [VERDICT_COLOURS.get(r["verdict"], VERDICT_COLOURS["error"]) for r in report.rows], None, None
-    known = [m for m in margins if m is not None]
-    low, high = min(min(known), -1e-9), max(max(known), 1e-9)
+    finite = [m for m in margins if m is not None and math.isfinite(m)]  # an infinite margin takes its end's colour
+    low, high = min(finite + [-1e-9]), max(finite + [1e-9])
     norm = TwoSlopeNorm(vcenter=0.0, vmin=low, vmax=high)
     cmap = matplotlib.colormaps["RdYlGn"]
-    colours = [cmap(norm(m)) if m is not None else VERDICT_COLOURS["error"] for m in margins]
+    colours = [cmap(norm(min(max(m, low), high))) if m is not None else VERDICT_COLOURS["error"] for m in margins]
     return colours, norm, cmap
+
+
+def _bar_ticks(low: float, high: float) -> list[float]:
+    """Colour-bar ticks: a few on each side of 0 (the scale is centred there), 0 itself, no tick for a side
+    that only pads the scale (+-1e-9)."""
+    from matplotlib.ticker import MaxNLocator
+
+    ticks = [0.0]
+    for end in (low, high):
+        if abs(end) > 1e-6:
+            ticks += [t for t in MaxNLocator(4).tick_values(min(0.0, end), max(0.0, end)) if t != 0 and abs(t) <= abs(end)]
+    return sorted(set(ticks))
 
 
 def _is_grid(xs: Sequence[Any], ys: Sequence[Any]) -> bool:
@@ -174,6 +186,7 @@ def map_figure(report: SweepReport) -> "Figure":
         from matplotlib.cm import ScalarMappable
 
         bar = figure.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, fraction=0.05, pad=0.02)
+        bar.set_ticks(_bar_ticks(norm.vmin, norm.vmax))  # each side of 0 has its own scale: ticks on both
         bar.set_label("margin (robustness; < 0 failed)", fontsize=8)
         handles = [Patch(facecolor="white", edgecolor="black", label=f"{_MARKS[v]} {v}") for v in ("fail", "timeout", "error")
                    if v in report.counts]  # fmt: skip

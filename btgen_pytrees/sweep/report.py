@@ -13,10 +13,12 @@ the sweep's order.
 from __future__ import annotations
 
 import json
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
+from ..run.report import margin_text
 from .variations import Value, format_value
 
 __all__ = ["SweepReport", "VERDICTS", "worst_first"]
@@ -25,6 +27,19 @@ VERDICTS = ("pass", "fail", "timeout", "error")
 """Row verdicts, best to worst; ``error`` also stands for a run that could not complete."""
 
 _RANK = {"error": 0, "timeout": 1, "fail": 2, "pass": 3}
+
+
+def _json_margin(margin: Any) -> Any:
+    return str(margin) if isinstance(margin, float) and math.isinf(margin) else margin
+
+
+def _json_row(row: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(row)
+    if "margin" in out:
+        out["margin"] = _json_margin(out["margin"])
+    if "oracles" in out:
+        out["oracles"] = [{**o, "margin": _json_margin(o.get("margin"))} if "margin" in o else o for o in out["oracles"]]
+    return out
 
 
 def worst_first(rows: Sequence[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
@@ -75,14 +90,16 @@ class SweepReport:
         return all(r["verdict"] == "pass" for r in self.rows)
 
     def to_dict(self) -> dict[str, Any]:
+        """The report as JSON data: rows as kept, but an infinite margin as ``"inf"``/``"-inf"``
+        (JSON has no infinity; the run report writes them so too)."""
         return {
             "test": self.test, "source": self.source, "verdict": self.verdict,
             "parameters": dict(self.defaults), "varied": list(self.varied),
-            "variations": len(self.rows), "counts": self.counts, "rows": self.rows,
+            "variations": len(self.rows), "counts": self.counts, "rows": [_json_row(r) for r in self.rows],
         }  # fmt: skip
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False) + "\n"
+        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
     def summary(self, shown: int = 10) -> str:
         """Counts per verdict, then the worst variations with why they did not pass."""
@@ -114,6 +131,8 @@ class SweepReport:
             total += r["duration"]
             el = ET.SubElement(suite, "testcase", classname=f"btgen.{self.test}", name=f"{self.test}[{r['label']}]",
                                time=f"{r['duration']:g}")  # fmt: skip
+            if r.get("margin") is not None:
+                ET.SubElement(ET.SubElement(el, "properties"), "property", name="margin", value=margin_text(r["margin"]))
             if r["verdict"] == "fail":
                 failures += 1
                 ET.SubElement(el, "failure", message=r["message"] or "failed").text = r["message"]

@@ -237,8 +237,9 @@ def run_case(path: str, case: Any, registry: Any, target: str | None, plot: str 
     from .loader import MAX_WORK, check_work
     from .run import run
 
-    check_work(case, MAX_WORK if max_work is None else max_work)
-    report = run(case, registry=registry, require_complete=require_complete or None)
+    budget = MAX_WORK if max_work is None else max_work
+    check_work(case, budget)
+    report = run(case, registry=registry, require_complete=require_complete or None, max_work=budget)
     outputs: list[tuple[str, str | bytes]] = []
     if target is not None:
         outputs = [(f"{target}.report.json", report.to_json()), (f"{target}.junit.xml", report.to_junit())]

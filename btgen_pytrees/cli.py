@@ -469,7 +469,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return run_sweep(args, data, _system(args))
     registry = _registry(args)
     case = validate(data, args.file, registry=registry, system=_system(args))
-    check_work(case, args.max_work)  # before anything runs: bounded work for any valid input
+    check_work(case, args.max_work)  # before anything runs: a tree whose one tick exceeds the budget
     for line in warning_lines(case):
         _err(line)
     logged = _btlog_tree(args, case, registry)
@@ -477,7 +477,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     progress = None if args.trace else terminal_progress(case.name, case.timeout, sys.stderr)  # a terminal's line only
     try:
         report = run(case, registry=registry, trace=trace, require_complete=args.require_complete or None,
-                     progress=progress)  # fmt: skip
+                     progress=progress, max_work=args.max_work)  # fmt: skip
     finally:
         if progress is not None:
             progress.done()

@@ -51,7 +51,7 @@ from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemInfo, SystemSpec
 
 __all__ = ["load", "load_json", "validate", "schema", "schema_for", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE", "MIN_TICK", "MAX_WORK",
-           "work", "check_work"]
+           "work", "check_work", "system_spec"]
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
 """Largest test-case file accepted (16 MiB); larger files are refused before reading."""
@@ -64,10 +64,11 @@ MIN_TICK = 1e-6
 far below this a tick would not move it, and a run would burn its ticks at t = 0."""
 
 MAX_WORK = 100_000_000
-"""Default work budget of a run (``run --max-work`` changes it): ``ticks x size``, where ticks is
-``timeout / tick + 1`` and size is ``entries + criteria + 10`` (the ten: the nodes every tree ticks).
-One unit is well under a microsecond for big trees and about 2 µs for tiny ones, so a run within
-the budget takes a few minutes at most."""
+"""Default work budget of a run (``run --max-work`` changes it). Each tick is charged the tree's size,
+``entries + criteria + 10`` (the ten: the nodes every tree ticks); a run is stopped with verdict
+``error`` when its next tick would exceed the budget (so a run ending early is charged only what it
+did). One unit is well under a microsecond for big trees and about 2 µs for tiny ones, so a run
+within the budget takes a few minutes at most."""
 
 MAX_NESTING = 100
 """Deepest nesting of arrays/objects accepted (fuzz finding: deeper values crashed error reporting)."""
@@ -840,6 +841,19 @@ def _sort_key(problem: Problem) -> tuple[Any, ...]:
     return tuple((0, p, "") if isinstance(p, int) else (1, 0, p) for p in problem.path), problem.message
 
 
+def system_spec(data: Any, source: str) -> SystemSpec | None:
+    """The system a case document names, its ``config`` resolved relative to the file *source*
+    (absolute), or None when it names none or not in a usable shape (validation says why)."""
+    raw = data.get("system") if isinstance(data, dict) else None
+    if not isinstance(raw, dict) or not isinstance(raw.get("type"), str):
+        return None
+    if raw.get("config") is not None and not isinstance(raw["config"], str):
+        return None
+    options = raw.get("options", ())
+    options = tuple(options) if isinstance(options, list) and all(isinstance(o, str) for o in options) else ()
+    return _spec({**raw, "options": options}, source)
+
+
 def _spec(raw: Mapping[str, Any] | None, source: str) -> SystemSpec:
     """The case's ``system`` key as a :class:`SystemSpec`, ``config`` resolved relative to the case file."""
     if raw is None:
@@ -889,20 +903,21 @@ def _option_problems(options: tuple[str, ...], system_type: Any) -> list[tuple[i
 
 
 def work(case: TestCase) -> int:
-    """The work units of a run of *case*: ``(timeout / tick + 1) x (entries + criteria + 10)`` (see :data:`MAX_WORK`)."""
+    """The most work units a run of *case* can take: ``(timeout / tick + 1) x (entries + criteria + 10)``
+    (a run that ends before its timeout is charged less; see :data:`MAX_WORK`)."""
     ticks = int(case.timeout / case.tick + 1e-9) + 1
     return ticks * (len(case.entries) + len(case.criteria) + 10)
 
 
 def check_work(case: TestCase, max_work: int = MAX_WORK) -> None:
-    """Raise :class:`InvalidTestCase` (at ``/timeout``, cause ``limit``) if a run of *case* exceeds *max_work*."""
-    units = work(case)
-    if units > max_work:
-        ticks = int(case.timeout / case.tick + 1e-9) + 1
-        size = len(case.entries) + len(case.criteria) + 10
-        message = (f"the run would do {ticks} ticks x {size} (entries + criteria + 10) = {units:.3g} units of work; "
-                   f"the budget is {max_work:.3g} (raise the tick, lower the timeout, or run --max-work N)")  # fmt: skip
-        raise InvalidTestCase([Problem(("timeout",), message, "limit")], case.source)
+    """Raise :class:`InvalidTestCase` (at ``/timeout``, cause ``limit``) if a run of *case* is certain to exceed
+    *max_work*: when even its first tick would. Anything else runs, and is stopped when its budget is spent
+    (``run(..., max_work=...)``)."""
+    size = len(case.entries) + len(case.criteria) + 10
+    if size > max_work:
+        message = (f"one tick of this tree is {size} units of work (entries + criteria + 10), more than the whole "
+                   f"budget, {max_work:.3g}: raise it with run --max-work N")  # fmt: skip
+        raise InvalidTestCase([Problem(("execute",), message, "limit")], case.source)
 
 
 def validate(data: Any, source: str = "<dict>", registry: Registry | None = None, system: SystemSpec | None = None) -> TestCase:

@@ -33,18 +33,28 @@ def write(tmp_path: pathlib.Path, data: dict[str, object], name: str = "c") -> s
     return str(path)
 
 
-def test_the_work_budget_is_checked_before_running(tmp_path: pathlib.Path) -> None:
+def test_the_work_budget_charges_the_work_done(tmp_path: pathlib.Path) -> None:
+    """Issue 19 item 11: refuse up front only what is certain to exceed; stop a run when its budget is spent."""
     tiny = write(tmp_path, case(entry("A", duration=100), tick=1e-6, timeout=10), "tiny")  # 10M ticks of a 1-entry tree
-    result = cli("run", tiny)
-    assert result.returncode == 2 and result.stdout == ""
-    assert "/timeout: the run would do 10000001 ticks x 11" in result.stderr and "--max-work" in result.stderr
+    result = cli("run", tiny, "--max-work", "100000", "--json", str(tmp_path / "r.json"))
+    assert result.returncode == 1, result.stderr
+    assert "t: ERROR after 0.009089 s (9090 ticks) - stopped: the work budget of 1e+05 units is spent after 9090 ticks x 11" in result.stdout
+    report = json.loads((tmp_path / "r.json").read_text())  # the partial report is kept
+    assert report["verdict"] == "error" and report["ticks"] == 9090 and report["execute"][0]["status"] != "success"
     small = case(entry("A"), tick=0.1, timeout=10)
-    assert work(btgen_pytrees.load(small)) == 101 * 11 < MAX_WORK
+    assert work(btgen_pytrees.load(small)) == 101 * 11 < MAX_WORK  # the most a run can do
     path = write(tmp_path, small)
-    assert cli("run", path, "--max-work", "1000").returncode == 2
-    assert cli("run", path, "--max-work", "1111").returncode == 0
-    batch = cli("run", path, tiny)
-    assert batch.returncode == 2 and "2 files: 1 ok, 1 invalid" in batch.stdout
+    refused = cli("run", path, "--max-work", "10")  # one tick is 11 units: certain to exceed, nothing runs
+    assert refused.returncode == 2 and refused.stdout == ""
+    assert "/execute: one tick of this tree is 11 units of work (entries + criteria + 10), more than the whole budget" in refused.stderr
+    assert cli("run", path, "--max-work", "120").returncode == 1  # 10 ticks of the 11 it needs
+    assert cli("run", path, "--max-work", "121").returncode == 0  # ends at 1 s: 11 ticks, 121 units, not 1111
+    batch = cli("run", path, tiny, "--max-work", "100000")
+    assert batch.returncode == 1 and "2 files: 1 ok, 1 error" in batch.stdout
+    # a 200-step chain with a generous timeout: 1e7 ticks x 210 charged up front before, 20,001 ticks run
+    comb = write(tmp_path, case(*[entry(f"S{i}", [f"S{i - 1}"] if i else [], duration=1) for i in range(200)],
+                                tick=0.01, timeout=100000), "comb")  # fmt: skip
+    assert cli("run", comb).returncode == 0
 
 
 def test_a_tick_too_small_to_advance_the_clock_is_refused() -> None:

@@ -79,6 +79,7 @@ def run_tree(
     trace: Trace | None = None,
     require_complete: bool | None = None,
     progress: Callable[[int, float], None] | None = None,
+    max_work: int | None = None,
 ) -> Report:
     """Run *root* (generated from *case*) against *system* until it finishes or times out.
 
@@ -94,6 +95,10 @@ def run_tree(
             instead (default: the case's ``require_complete``)
         progress: called after every tick with the number of ticks done and the
             run time (``run``'s terminal line, :mod:`btgen_pytrees.progress`)
+        max_work: the work budget (:data:`~btgen_pytrees.loader.MAX_WORK`; ``None``: none).
+            Each tick charges the tree's size (entries + criteria + 10); a run whose
+            next tick would exceed the budget ends there with verdict ``error``,
+            keeping what it found so far
     """
     if system is None:
         system = create_system(case, registry)
@@ -101,6 +106,7 @@ def run_tree(
     collector = Collector(root, trace=trace, record=True)  # record: report.trace, for --plot/--replay/--btlog
     see = collector.run
     last = int(case.timeout / case.tick + 1e-9)
+    stop = last if max_work is None else min(last, max_work // work_per_tick(case) - 1)  # the budget's last tick
     saved = env.clock, env.system
     clock = VirtualClock()  # holds the system's time, read once per tick
     env.clock, env.system = clock, system
@@ -115,7 +121,7 @@ def run_tree(
             return collector.report()
         system.start(env)
         scene, places = _scene(system, collector)
-        for k in range(last + 1):
+        for k in range(stop + 1):
             then = _system_time(case, system, then)
             clock.set(then)
             system.publish(env)
@@ -138,10 +144,13 @@ def run_tree(
                 progress(k + 1, then)
             if root.status in _DONE:
                 break
-            if k < last:
+            if k < stop:
                 system.tick()
         else:
-            collector.end("timeout", f"no verdict after {case.timeout:g} s")
+            if stop < last:
+                collector.end("error", _spent(case, max_work or 0, stop + 1))
+            else:
+                collector.end("timeout", f"no verdict after {case.timeout:g} s")
     except BaseException as exc:  # noqa: BLE001 - start, publish or tick: the run's error, never a traceback
         if is_interrupt(exc):
             raise
@@ -171,8 +180,11 @@ def run_tree(
 
 
 def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None,
-        require_complete: bool | None = None, progress: Callable[[int, float], None] | None = None) -> Report:  # fmt: skip
-    """Generate *case*'s tree, run it against its system and return the :class:`Report`."""
+        require_complete: bool | None = None, progress: Callable[[int, float], None] | None = None,
+        max_work: int | None = None) -> Report:  # fmt: skip
+    """Generate *case*'s tree, run it against its system and return the :class:`Report`.
+
+    *max_work*: the work budget (see :func:`run_tree`; default none)."""
     registry = registry if registry is not None else default_registry()
     try:
         system = create_system(case, registry)
@@ -187,7 +199,19 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
             raise
         return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}",
                       source=case.source)
-    return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress)
+    return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress,
+                    max_work=max_work)
+
+
+def work_per_tick(case: TestCase) -> int:
+    """Work units one tick of *case*'s tree is charged: entries + criteria + 10 (the nodes every tree ticks)."""
+    return len(case.entries) + len(case.criteria) + 10
+
+
+def _spent(case: TestCase, budget: int, ticks: int) -> str:
+    size = work_per_tick(case)
+    return (f"stopped: the work budget of {budget:.3g} units is spent after {ticks} ticks x {size} "
+            f"(entries + criteria + 10), with no verdict yet; raise it with --max-work N")
 
 
 def _system_time(case: TestCase, system: System, then: float) -> float:

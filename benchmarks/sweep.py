@@ -61,13 +61,14 @@ def _time(run: Callable[[], Any], repeats: int) -> tuple[float, Any]:
 def measure(data: dict[str, Any], source: str, repeats: int, dask: bool = True) -> dict[str, Any]:
     from btgen_pytrees.sweep import load_sweep
     from btgen_pytrees.sweep.command import run_variations
+    from btgen_pytrees.sweep.jobs import RunOptions
 
     start = time.perf_counter()
     sweep = load_sweep(data, source_name=source, max_variations=10**6)
     check = time.perf_counter() - start
     variations = list(sweep)
     n = len(variations)
-    plugins: tuple[str, ...] = ()
+    plugins = RunOptions()
 
     def engine(workers: int, executor: Any = None) -> Callable[[], Any]:
         return lambda: run_variations(sweep, variations, plugins, None, workers, executor)  # what `run` does

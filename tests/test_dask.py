@@ -9,6 +9,7 @@ process (SIGKILL) in the middle of a sweep. The tests skip only when
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import logging
 import os
@@ -54,9 +55,9 @@ def client(cluster: Any) -> Iterator[Any]:
         yield c
 
 
-def cli(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+def cli(*args: str, env: dict[str, str] | None = None, cwd: pathlib.Path = ROOT) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "btgen_pytrees", *args], capture_output=True, text=True,
-                          timeout=300, cwd=ROOT, env={**os.environ, **(env or {})})  # fmt: skip
+                          timeout=300, cwd=cwd, env={**os.environ, **(env or {})})  # fmt: skip
 
 
 def btgen_tasks(client: Any) -> list[str]:
@@ -116,7 +117,7 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_counts_nothing_twice(cluste
     from btgen_pytrees import batch
     from btgen_pytrees.sweep import load_sweep
     from btgen_pytrees.sweep.executors import DaskExecutor
-    from btgen_pytrees.sweep.jobs import VariationOutcome, job_variation
+    from btgen_pytrees.sweep.jobs import RunOptions, VariationOutcome, job_variation
 
     sweep = load_sweep(slow_sweep(60))
     variations = list(sweep)
@@ -135,7 +136,7 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_counts_nothing_twice(cluste
             killed.append(pid)
 
     with DaskExecutor(cluster.scheduler_address, chunk=3) as executor:
-        outcomes = batch.process(job_variation, [((), sweep.source, v.document) for v in variations],
+        outcomes = batch.process(job_variation, [(RunOptions(), sweep.source, v.document) for v in variations],
                                  [v.label for v in variations], executor=executor, on_result=on_result)  # fmt: skip
     assert killed, "no worker was busy to kill"
     assert sorted(seen) == sorted(v.label for v in variations)  # every result once
@@ -150,10 +151,10 @@ def test_stopping_early_cancels_what_was_submitted(cluster: Any, client: Any) ->
 
     from btgen_pytrees.sweep import load_sweep
     from btgen_pytrees.sweep.executors import DaskExecutor
-    from btgen_pytrees.sweep.jobs import job_variation
+    from btgen_pytrees.sweep.jobs import RunOptions, job_variation
 
     sweep = load_sweep(slow_sweep(40))
-    calls = [partial(job_variation, v.label, (), sweep.source, v.document) for v in sweep]
+    calls = [partial(job_variation, v.label, RunOptions(), sweep.source, v.document) for v in sweep]
     with DaskExecutor(cluster.scheduler_address, chunk=1) as executor:
         stream = executor.map_unordered(calls)
         next(stream)
@@ -195,3 +196,210 @@ def test_an_unreachable_scheduler_is_a_usage_error_before_anything_runs(tmp_path
                  env={"DASK_SCHEDULER_ADDRESS": ""})  # fmt: skip
     assert result.returncode == 2 and "--executor dask needs --scheduler" in result.stderr
     assert not (tmp_path / "r.json").exists()
+
+
+# ---------------------------------------------------------------------------
+# issue 19 items 7-8, issue 20 items 1, 6, 8: workers elsewhere, threads, options, a lost scheduler, addresses
+
+needs_sumo = pytest.mark.skipif(
+    importlib.util.find_spec("libsumo") is None and not os.environ.get("CI"),
+    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)",
+)
+
+HIDE = '''
+"""Worker preload: run in another directory, and make the client's case folder invisible to this process."""
+import os
+import sys
+
+
+def dask_setup(worker):
+    hidden = os.environ["BTGEN_TEST_HIDDEN"]
+    os.chdir(os.environ["BTGEN_TEST_CWD"])
+
+    def hook(event, args):
+        if event in ("open", "os.listdir", "os.scandir", "os.chdir") and args and isinstance(args[0], (str, bytes)):
+            path = os.path.abspath(os.fsdecode(args[0]))
+            if path == hidden or path.startswith(hidden + os.sep):
+                raise PermissionError(13, "this worker shares no disk with the client", path)
+
+    sys.addaudithook(hook)
+'''
+
+MARK_PLUGIN = '''
+import py_trees
+from py_trees.common import Status
+
+
+class Mark(py_trees.behaviour.Behaviour):
+    def __init__(self, entry, env):
+        super().__init__(name=entry.name)
+        self.level = entry.params.get("level")
+
+    def update(self):
+        return Status.SUCCESS if self.level <= 2 else Status.FAILURE
+
+
+def register(registry):
+    registry.register("mark", lambda entry, env: Mark(entry, env), kind="behavior")
+'''
+
+
+@pytest.fixture(scope="module")
+def elsewhere(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, pathlib.Path]]:
+    """A LocalCluster of 2 worker processes with 2 threads each, running in another directory, that cannot
+    read the client's case folder (an audit hook refuses every open there); yields it and that folder."""
+    from distributed import LocalCluster
+
+    base = tmp_path_factory.mktemp("elsewhere")
+    client_dir, worker_dir = base / "client", base / "worker"
+    client_dir.mkdir()
+    worker_dir.mkdir()
+    for name in ("cut_in_sweep.json", "cut_in.json", "acc_hard_brake.json", "cut_in.sumocfg", "cut_in.rou.xml",
+                 "acc.sumocfg", "acc.rou.xml", "road.net.xml"):
+        shutil.copy(ROOT / "examples" / "sumo" / name, client_dir / name)
+    (client_dir / "mark_plugin.py").write_text(MARK_PLUGIN)
+    preload = base / "hide.py"
+    preload.write_text(HIDE)
+    env = {"BTGEN_TEST_HIDDEN": str(client_dir), "BTGEN_TEST_CWD": str(worker_dir)}
+    with LocalCluster(n_workers=2, threads_per_worker=2, processes=True, dashboard_address=None,
+                      silence_logs=logging.CRITICAL, preload=[str(preload)], env=env) as c:  # fmt: skip
+        yield c, client_dir
+
+
+def test_the_workers_elsewhere_really_cannot_see_the_case_folder(elsewhere: tuple[Any, pathlib.Path]) -> None:
+    from distributed import Client
+
+    cluster, client_dir = elsewhere
+
+    def look(path: str) -> str:
+        try:
+            with open(path, "rb"):
+                return "read"
+        except OSError as exc:
+            return f"{os.getcwd()}: {type(exc).__name__}"
+
+    with Client(cluster.scheduler_address, set_as_default=False) as c:
+        seen = c.run(look, str(client_dir / "cut_in.sumocfg"))
+        threads = c.nthreads()
+    assert len(seen) == 2 and set(seen.values()) == {f"{client_dir.parent / 'worker'}: PermissionError"}
+    assert sorted(threads.values()) == [2, 2]
+
+
+@needs_sumo
+def test_a_sumo_sweep_from_a_relative_path_on_workers_elsewhere_with_two_threads(elsewhere: tuple[Any, pathlib.Path],
+                                                                               tmp_path: pathlib.Path) -> None:  # fmt: skip
+    """Issue 19 items 7 and 8: the workers share neither the client's directory nor its disk, and run 2 threads
+    each; every verdict, and the reports to the byte, are the local pool's."""
+    cluster, client_dir = elsewhere
+    local = cli("run", "cut_in_sweep.json", "--jobs", "2", "--json", str(tmp_path / "l.json"), "--junit",
+                str(tmp_path / "l.xml"), cwd=client_dir)  # fmt: skip
+    dask = cli("run", "cut_in_sweep.json", "--executor", "dask", "--scheduler", cluster.scheduler_address,
+               "--json", str(tmp_path / "d.json"), "--junit", str(tmp_path / "d.xml"), cwd=client_dir)  # fmt: skip
+    assert local.returncode == dask.returncode == 1, dask.stderr
+    rows = json.loads((tmp_path / "d.json").read_text())["rows"]
+    assert len(rows) == 60 and {r["verdict"] for r in rows} == {"pass", "fail"}, rows[0]
+    assert (tmp_path / "l.json").read_bytes() == (tmp_path / "d.json").read_bytes()
+    assert (tmp_path / "l.xml").read_bytes() == (tmp_path / "d.xml").read_bytes()
+
+
+@needs_sumo
+def test_a_batch_of_sumo_cases_runs_on_workers_elsewhere(elsewhere: tuple[Any, pathlib.Path], tmp_path: pathlib.Path) -> None:
+    cluster, client_dir = elsewhere
+    files = ["cut_in.json", "acc_hard_brake.json"]
+    local = cli("run", *files, "--out-dir", str(tmp_path / "l"), cwd=client_dir)
+    dask = cli("run", *files, "--executor", "dask", "--scheduler", cluster.scheduler_address, "--out-dir",
+               str(tmp_path / "d"), cwd=client_dir)  # fmt: skip
+    assert local.returncode == dask.returncode, dask.stdout + dask.stderr
+    assert "INVALID" not in dask.stdout and "ERROR" not in dask.stdout
+    assert sorted(p.name for p in (tmp_path / "d").iterdir()) == sorted(p.name for p in (tmp_path / "l").iterdir())
+    for p in (tmp_path / "l").iterdir():
+        assert (tmp_path / "d" / p.name).read_bytes() == p.read_bytes()
+
+
+def test_plugin_files_and_run_options_reach_every_variation_on_workers_elsewhere(elsewhere: tuple[Any, pathlib.Path],
+                                                                                tmp_path: pathlib.Path) -> None:  # fmt: skip
+    """A --plugin file is sent to the workers; --require-complete and --max-work reach each variation (issue 20 item 1)."""
+    cluster, client_dir = elsewhere
+    data = case(entry("M", action="mark", level="$w"), entry("A", duration="$d"), entry("H", ["A"]),
+                criteria=[crit("F", "final", "true", at=2)], tick="$dt", timeout=100)  # fmt: skip
+    data["parameters"] = {"w": 1, "d": 1, "dt": 0.1}
+    data["variations"] = {"w": [1, 3], "d": [1, 3], "dt": [0.1, 0.001]}
+    (client_dir / "opts.json").write_text(json.dumps(data))
+    common = ["opts.json", "--plugin", "mark_plugin.py", "--require-complete", "--max-work", "20000"]
+    for engine, extra in (("l", ["--jobs", "2"]), ("d", ["--executor", "dask", "--scheduler", cluster.scheduler_address])):
+        result = cli("run", *common, *extra, "--json", str(tmp_path / f"{engine}.json"), cwd=client_dir)
+        assert result.returncode == 1, result.stderr
+    rows = json.loads((tmp_path / "d.json").read_text())["rows"]
+    verdicts = {r["label"]: r["verdict"] for r in rows}
+    assert verdicts["w=1,d=1,dt=0.1"] == "pass" and verdicts["w=3,d=1,dt=0.1"] == "fail"  # the plugin's leaf ran
+    assert verdicts["w=1,d=3,dt=0.1"] == "fail"  # --require-complete: H never ran, A was stopped at 2 s
+    assert verdicts["w=1,d=1,dt=0.001"] == "error"  # --max-work: 2000 ticks x 13 > 20000
+    assert "work budget" in next(r["message"] for r in rows if r["label"] == "w=1,d=1,dt=0.001")
+    assert (tmp_path / "l.json").read_bytes() == (tmp_path / "d.json").read_bytes()
+
+
+@pytest.mark.parametrize("address, why", [
+    ("garbage", "not a scheduler address; expected tcp://HOST:PORT"),
+    ("tcp://127.0.0.1:99999", "port 99999 is out of range"),
+    ("ucx://127.0.0.1:8786", "the ucx:// protocol is not supported"),
+    ("tls://127.0.0.1:8786", "tls:// needs Dask's TLS settings"),
+])  # fmt: skip
+def test_a_malformed_or_unsupported_scheduler_address_is_refused_at_once(address: str, why: str, tmp_path: pathlib.Path) -> None:
+    """Issue 20 item 8: exit 2, one line, nothing run, no traceback - and no waiting for a connection timeout."""
+    start = time.monotonic()
+    result = cli("run", str(FIG1_SWEEP), "--executor", "dask", "--scheduler", address, "--json", str(tmp_path / "r.json"))
+    assert result.returncode == 2, result.stderr
+    assert why in result.stderr and "Traceback" not in result.stderr and result.stderr.count("\n") == 1
+    assert not (tmp_path / "r.json").exists() and time.monotonic() - start < 8  # was 21 s
+
+
+def test_a_scheduler_that_dies_mid_sweep_keeps_the_finished_rows(tmp_path: pathlib.Path) -> None:
+    """Issue 20 item 6: one line says what happened, finished rows are kept, the rest are errors, exit 3."""
+    from distributed import Client
+
+    scheduler_file = tmp_path / "scheduler.json"
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                  "--port", "0", "--no-dashboard", "--scheduler-file", str(scheduler_file)],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    worker = None
+    try:
+        deadline = time.monotonic() + 60
+        while not scheduler_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())["address"]
+        worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                                   "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+        path = tmp_path / "long.json"
+        path.write_text(json.dumps(slow_sweep(800)))  # 13 tasks of about 1 s here
+        report = tmp_path / "r.json"
+        with Client(address, set_as_default=False) as watcher:
+            watcher.wait_for_workers(1, timeout=60)
+            proc = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "run", str(path), "--executor", "dask",
+                                     "--scheduler", address, "--json", str(report)],
+                                    cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+
+            def finished(dask_scheduler: Any) -> int:
+                return sum(1 for k, t in dask_scheduler.tasks.items() if str(k).startswith("btgen-") and t.state == "memory")
+
+            deadline = time.monotonic() + 120
+            while watcher.run_on_scheduler(finished) < 2 and time.monotonic() < deadline:
+                time.sleep(0.05)
+            time.sleep(2)  # the client fetches the results of finished tasks
+            scheduler.kill()  # SIGKILL: as a lost machine would
+        out, err = proc.communicate(timeout=180)
+    finally:
+        for p in (worker, scheduler):
+            if p is not None:
+                p.kill()
+                p.wait(30)
+    assert proc.returncode == 3, err
+    assert "Traceback" not in err and "NoneType" not in out + err
+    (line,) = err.splitlines()
+    assert line.startswith(f"btgen_pytrees: the connection to the Dask scheduler at {address} was lost after ")
+    assert line.endswith(" of 800 runs had finished; the rest are reported as errors")
+    rows = json.loads(report.read_text())["rows"]
+    passed = [r for r in rows if r["verdict"] == "pass"]
+    assert len(rows) == 800 and 0 < len(passed) < 800
+    assert f" {len(passed)} of 800 runs" in line
+    assert {r["message"] for r in rows if r["verdict"] != "pass"} == {
+        f"internal error: not run: the connection to the Dask scheduler at {address} was lost"}

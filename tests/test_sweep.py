@@ -355,13 +355,38 @@ def test_the_sweep_benchmark_runs_and_every_engine_agrees(capsys: pytest.Capture
     assert "fig1 sweep: 30 variations" in out and "local --jobs 2" in out and "speed-up 1 -> 2" in out
 
 
-def test_every_variation_must_fit_the_work_budget(tmp_path: pathlib.Path) -> None:
+def test_every_variation_runs_within_the_work_budget(tmp_path: pathlib.Path) -> None:
+    """--max-work reaches every variation's run (issue 20 item 1): one that spends it is stopped with `error`."""
     path = tmp_path / "work.json"
-    path.write_text(json.dumps(swept({"dt": 0.1}, {"dt": [0.1, 0.01]}, entry("A"), tick="$dt", timeout=10)))
-    result = cli("run", str(path), "--max-work", "5000", "--json", str(tmp_path / "r.json"))
-    assert result.returncode == 2 and not (tmp_path / "r.json").exists()
-    assert "/timeout: the run would do 1001 ticks" in result.stderr and "(in variation: [dt=0.01])" in result.stderr
-    assert cli("run", str(path), "--max-work", "20000").returncode == 0
+    path.write_text(json.dumps(swept({"dt": 0.1}, {"dt": [0.1, 0.01]}, entry("A", duration=20), tick="$dt", timeout=100)))
+    for jobs in ("1", "2"):
+        result = cli("run", str(path), "--max-work", "5000", "--jobs", jobs, "--json", str(tmp_path / "r.json"))
+        assert result.returncode == 1, result.stderr
+        rows = json.loads((tmp_path / "r.json").read_text())["rows"]
+        assert [r["verdict"] for r in rows] == ["pass", "error"]
+        assert rows[1]["message"].startswith("stopped: the work budget of 5e+03 units is spent after 454 ticks x 11")
+        assert rows[1]["ticks"] == 454 and rows[1]["duration"] == 4.53  # the partial run is kept
+    assert cli("run", str(path), "--max-work", "30000").returncode == 0  # 201 x 11 and 2001 x 11: both fit
+    assert cli("run", str(path)).returncode == 0  # the default budget: a timeout of 100 s is not charged up front
+    refused = cli("run", str(path), "--max-work", "10", "--json", str(tmp_path / "none.json"))
+    assert refused.returncode == 2 and not (tmp_path / "none.json").exists()  # one tick is 11 units: certain to exceed
+    assert "/execute: one tick of this tree is 11 units of work" in refused.stderr
+
+
+def test_require_complete_reaches_every_variation(tmp_path: pathlib.Path) -> None:
+    """A final at 2 s passes with the timeline unfinished: --require-complete fails each variation, as alone."""
+    data = case(entry("A", duration="$d"), entry("H", ["A"]), criteria=[crit("F", "final", "true", at=2)])
+    path = tmp_path / "early.json"
+    path.write_text(json.dumps({**data, "parameters": {"d": 3}, "variations": {"d": [1, 3]}}))
+    assert cli("run", str(path)).returncode == 0
+    result = cli("run", str(path), "--require-complete", "--json", str(tmp_path / "r.json"))
+    assert result.returncode == 1, result.stdout
+    rows = json.loads((tmp_path / "r.json").read_text())["rows"]
+    assert [r["verdict"] for r in rows] == ["pass", "fail"]  # d=1: A and H end by 2 s; d=3: A is stopped
+    alone = tmp_path / "alone.json"
+    assert cli("expand", str(path), "--out-dir", str(tmp_path / "x")).returncode == 0
+    alone = tmp_path / "x" / "t[d=3].json"
+    assert cli("run", str(alone), "--require-complete").returncode == 1
 
 
 DYING_PLUGIN = '''

@@ -19,12 +19,16 @@ import sys
 from typing import Any, Callable, Mapping, Sequence
 
 from .. import batch
-from ..leaves import default_registry
+from ..leaves import Registry, default_registry
+from ..leaves.plugins import is_path
 from ..errors import InvalidTestCase, Problem
+from ..loader import parse_json, system_spec
 from ..output import commit, write_file
+from ..systems.base import SystemSpec
 from .case import MAX_VARIATIONS, Sweep, Variation, load_sweep
-from .jobs import ChunkOutcome, VariationOutcome, chunk_size, job_chunk, job_run_shipped
+from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk, job_run_shipped
 from .report import SweepReport
+from .shipping import Files, ShippingError, read_files
 
 __all__ = ["run_sweep", "run_variations", "dask_batch_args", "cmd_expand", "file_name", "make_executor", "sweep_report", "Refused"]
 
@@ -82,10 +86,13 @@ def make_executor(args: argparse.Namespace) -> Any:
     """None for the local pool; a connected :class:`DaskExecutor` for ``--executor dask``.
 
     Raises:
-        Refused: no scheduler address, the extra is missing, or the scheduler cannot be reached.
+        Refused: no scheduler address, a malformed or unsupported one, the extra is missing,
+            or the scheduler cannot be reached.
     """
     if getattr(args, "executor", None) != "dask":
         return None
+    import logging
+
     from .executors import DaskExecutor, DaskUnavailable, scheduler_address
 
     address = scheduler_address(args.scheduler)
@@ -96,7 +103,56 @@ def make_executor(args: argparse.Namespace) -> Any:
         executor.connect()
     except DaskUnavailable as problem:
         raise Refused(str(problem)) from None
+    finally:  # the command says itself what went wrong with the cluster, in one line; distributed's own
+        # log records (tracebacks of its reconnection attempts) would bury it. Its loggers exist once it is imported.
+        for name in [n for n in logging.root.manager.loggerDict if n == "distributed" or n.startswith("distributed.")]:
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     return executor
+
+
+def run_options(args: argparse.Namespace) -> RunOptions:
+    """The options of ``run`` that change each run, with plugin files as absolute paths."""
+    plugins = tuple(os.path.abspath(p) if is_path(p) else p for p in (args.plugin or ()))
+    return RunOptions(plugins, getattr(args, "max_work", None), bool(getattr(args, "require_complete", False)))
+
+
+def resolved_system(document: Any, source: str, system: SystemSpec | None) -> SystemSpec | None:
+    """The system a run of *document* uses, its configuration an absolute path on this machine:
+    *system* (``--system``) or the case's own, resolved relative to *source*."""
+    if system is not None:
+        return system
+    own = system_spec(document, source)
+    return SystemSpec(own.type, own.config) if own is not None and own.config is not None else None
+
+
+def needed_files(options: RunOptions, systems: Sequence[SystemSpec | None], registry: Registry) -> list[str]:
+    """Every file the runs read besides their case: each system's (its type's ``files(spec)``, else
+    its configuration file) and the ``--plugin`` files - absolute paths on this machine."""
+    found: list[str] = [p for p in options.plugins if is_path(p) and os.path.isfile(p)]
+    for spec in dict.fromkeys(s for s in systems if s is not None and s.config is not None):
+        assert spec.config is not None
+        system_type = registry.system(spec.type)
+        lister = getattr(system_type, "files", None)
+        try:
+            files = tuple(lister(spec)) if callable(lister) else ()
+        except Exception:  # noqa: BLE001 - a third-party system's bug: ship the configuration at least
+            files = ()
+        found += [os.path.abspath(f) for f in files] or ([spec.config] if os.path.isfile(spec.config) else [])
+    return list(dict.fromkeys(found))
+
+
+def ship(executor: Any, options: RunOptions, systems: Sequence[SystemSpec | None], registry: Registry) -> RunOptions:
+    """On a cluster: send the files the runs read to the workers (once each); the options naming them."""
+    if executor is None:
+        return options
+    try:
+        files: Files = read_files(needed_files(options, systems, registry))
+    except ShippingError as problem:
+        raise Refused(str(problem)) from None
+    if not files.items:
+        return options
+    executor.ship(files)
+    return RunOptions(options.plugins, options.max_work, options.require_complete, files.digest)
 
 
 def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequence[batch.Outcome]) -> SweepReport:
@@ -113,22 +169,28 @@ def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequen
     return report
 
 
-def run_variations(sweep: Sweep, variations: Sequence[Variation], plugins: tuple[str, ...], system: Any,
+def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOptions, system: SystemSpec | None,
                    workers: int, executor: Any = None, progress: Any = None) -> list[batch.Outcome]:  # fmt: skip
     """Run *variations*; one outcome per variation, in order.
 
-    On the local pool, variations go to the workers in chunks (:func:`~.jobs.chunk_size`:
-    about 8 per worker, at most 32 runs each), so the cost of handing a task to a
-    process is paid once per chunk; a worker that dies costs its chunk (each of its
-    variations gets the error). A :class:`~.executors.DaskExecutor` chunks by itself.
+    Every variation's job gets *options* and its system (*system*, ``--system``, or its own
+    with the configuration resolved here). On a cluster the files the runs read are sent to
+    the workers first (:func:`ship`). On the local pool, variations go to the workers in chunks
+    (:func:`~.jobs.chunk_size`: about 8 per worker, at most 32 runs each), so the cost of
+    handing a task to a process is paid once per chunk; a worker that dies costs its chunk
+    (each of its variations gets the error). A :class:`~.executors.DaskExecutor` chunks by itself.
 
     Raises:
         batch.Interrupted: Ctrl-C; its ``finished`` tells how many variations had run.
     """
+    systems = [resolved_system(v.document, sweep.source, system) for v in variations]
+    options = ship(executor, options, systems, default_registry(options.plugins) if executor is not None else Registry())
     size = chunk_size(len(variations), workers) if executor is None else 1
-    chunks = [variations[k:k + size] for k in range(0, len(variations), size)]
+    starts = range(0, len(variations), size)
+    chunks = [variations[k:k + size] for k in starts]
     names = [c[0].label if len(c) == 1 else f"variations {c[0].index + 1}-{c[-1].index + 1}" for c in chunks]
-    job_args = [(plugins, sweep.source, [(v.label, v.document) for v in c], system) for c in chunks]
+    job_args = [(options, sweep.source, [(v.label, v.document, s) for v, s in zip(c, systems[k:k + size])])
+                for k, c in zip(starts, chunks)]  # fmt: skip
     try:
         done = batch.process(job_chunk, job_args, names, workers=workers, progress=progress, executor=executor)
     except batch.Interrupted as stop:
@@ -152,7 +214,7 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
     executor = make_executor(args)
     variations = list(sweep)
     try:
-        outcomes = run_variations(sweep, variations, tuple(args.plugin or ()), system, args.jobs, executor,
+        outcomes = run_variations(sweep, variations, run_options(args), system, args.jobs, executor,
                                   batch.progress_stream())  # fmt: skip
     except batch.Interrupted as stop:
         print(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {stop.finished} of "
@@ -174,6 +236,8 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
         outputs.append((args.plot, map_bytes(report, plot_format(args.plot))))
     commit(outputs)
     sys.stdout.write(report.summary())
+    if executor is not None and executor.lost:
+        print(f"btgen_pytrees: {executor.lost}; the rest are reported as errors", file=sys.stderr)
     if any(o.code == 3 for o in outcomes):
         return 3
     return EXIT_OK if report.passed else EXIT_FAIL
@@ -184,22 +248,38 @@ def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequenc
     """``run FILE... --executor dask``: the cluster, the job and its arguments for the CLI's batch.
 
     Each file is read here (with the loader's limits) and its bytes travel with
-    its task, so workers need no copy of the files; the outputs come back as
-    data and the CLI writes them here, never on a worker.
+    its task, so workers need no copy of the files; the files the cases name
+    (SUMO configurations and their networks and routes) and the ``--plugin``
+    files are sent to every worker once. The outputs come back as data and the
+    CLI writes them here, never on a worker.
     """
     executor = make_executor(args)
-    plugins = tuple(args.plugin or ())
-
-    def job_args(i: int) -> tuple[object, ...]:
+    shipped: list[tuple[bytes | None, list[Problem], SystemSpec | None]] = []
+    for path in files:
         try:
-            raw: bytes | None = _read(files[i])
+            raw: bytes | None = _read(path)
             problems: list[Problem] = []
         except InvalidTestCase as error:
             raw, problems = None, list(error.problems)
-        return (plugins, raw, problems, targets[i], plot, bool(args.junit), system, getattr(args, "max_work", None),
-                getattr(args, "require_complete", False))
+        shipped.append((raw, problems, _system_of(raw, path, system)))
+    options = ship(executor, run_options(args), [s for _, _, s in shipped], default_registry(()))
+
+    def job_args(i: int) -> tuple[object, ...]:
+        raw, problems, spec = shipped[i]
+        return (options, raw, problems, targets[i], plot, bool(args.junit), spec)
 
     return executor, job_run_shipped, job_args
+
+
+def _system_of(raw: bytes | None, path: str, system: SystemSpec | None) -> SystemSpec | None:
+    """The system of the file *path* holding *raw*, resolved here (None if it cannot be read: the worker says why)."""
+    if system is not None or raw is None:
+        return system
+    try:
+        document = parse_json(raw, path)
+    except InvalidTestCase:
+        return None
+    return resolved_system(document, path, None)
 
 
 def _read(path: str) -> bytes:

@@ -9,8 +9,16 @@ it for a sweep's variations and for a batch of files alike.
 What the cluster gets and gives back:
 
 * **Data, not paths.** Each task carries its case *data* (a sweep's concrete
-  documents, a batch's file contents - see docs/scaling.md), so a worker needs
-  btgen_pytrees (and any plugins) installed, and no copy of the case file.
+  documents, a batch's file contents - see docs/scaling.md); the files the runs
+  read besides (a SUMO configuration, its network and routes, ``--plugin``
+  files) are sent once to every worker (:meth:`DaskExecutor.ship`,
+  :mod:`.shipping`). So a worker needs btgen_pytrees (and any plugin
+  *modules*) installed, and neither the client's files nor its working directory.
+* **One run at a time per worker process.** A run ticks a py_trees tree and may
+  drive a simulator that allows one simulation per process (libsumo); a worker
+  process with several threads therefore runs its tasks one after the other
+  (:func:`run_chunk` holds a process-wide lock), so every verdict is the one
+  the local pool gives, whatever ``--nthreads`` the workers were started with.
 * **Chunks.** A run of a small case takes milliseconds, about what the scheduler
   spends on one task; calls are therefore grouped into chunks (about
   :data:`CHUNKS_PER_WORKER` per worker, at most :data:`MAX_CHUNK` calls each) so
@@ -34,11 +42,15 @@ from __future__ import annotations
 import importlib.util
 import math
 import os
+import re
+import threading
 import uuid
 from typing import Any, Callable, Iterator, Sequence
 
-__all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "TaskFailed", "scheduler_address", "run_chunk",
-           "CHUNKS_PER_WORKER", "MAX_CHUNK"]  # fmt: skip
+from .shipping import Files, install
+
+__all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "SchedulerLost", "TaskFailed", "scheduler_address",
+           "check_address", "run_chunk", "CHUNKS_PER_WORKER", "MAX_CHUNK"]  # fmt: skip
 
 CHUNKS_PER_WORKER = 8
 """Tasks per worker a sweep is split into (more: finer progress and balance; fewer: less overhead)."""
@@ -51,6 +63,14 @@ HINT = "--executor dask needs dask and distributed: pip install 'btgen_pytrees[d
 
 class DaskUnavailable(RuntimeError):
     """The cluster cannot be used (extra not installed, scheduler unreachable); ``str()`` says why."""
+
+
+class SchedulerLost(RuntimeError):
+    """The connection to the scheduler broke during the run; ``done`` calls had finished, ``str()`` says what happened."""
+
+    def __init__(self, message: str, done: int):
+        super().__init__(message)
+        self.done = done
 
 
 class TaskFailed(Exception):
@@ -69,9 +89,58 @@ def scheduler_address(given: str | None) -> str | None:
     return given or os.environ.get("DASK_SCHEDULER_ADDRESS") or None
 
 
-def run_chunk(chunk: Sequence[tuple[int, Callable[[], Any]]]) -> list[tuple[int, Any]]:
-    """The task a worker runs: every call of *chunk*, in order, with its index."""
-    return [(i, call()) for i, call in chunk]
+_ADDRESS = re.compile(r"(?:(?P<protocol>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)"
+                      r":(?P<port>[0-9]{1,5})")  # fmt: skip
+
+
+def check_address(address: str) -> str:
+    """*address* if it is a scheduler address this client can use, else :class:`DaskUnavailable` at once.
+
+    Accepted: ``tcp://HOST:PORT`` (``HOST:PORT`` is the same), and ``tls://HOST:PORT``
+    when Dask's TLS settings name a CA file (``distributed.comm.tls.ca-file``). Nothing
+    is connected here: a malformed or unsupported address never waits for a timeout.
+    """
+    shown = address if len(address) <= 120 else address[:117] + "..."
+    match = _ADDRESS.fullmatch(address.strip())
+    if match is None:
+        raise DaskUnavailable(f"--scheduler {shown!r}: not a scheduler address; expected tcp://HOST:PORT")
+    protocol = (match["protocol"] or "tcp").lower()
+    port = int(match["port"])
+    if not 0 < port < 65536:
+        raise DaskUnavailable(f"--scheduler {shown!r}: port {port} is out of range (1-65535)")
+    if protocol == "tls":
+        import dask.config
+
+        if not dask.config.get("distributed.comm.tls.ca-file", None):
+            raise DaskUnavailable(f"--scheduler {shown!r}: tls:// needs Dask's TLS settings (distributed.comm.tls.ca-file, "
+                                  ".client.cert and .client.key in a Dask configuration file or DASK_ variables)")  # fmt: skip
+    elif protocol != "tcp":
+        raise DaskUnavailable(f"--scheduler {shown!r}: the {protocol}:// protocol is not supported; use tcp://HOST:PORT "
+                              "(or tls:// with Dask's TLS settings)")  # fmt: skip
+    return address.strip()
+
+
+_one_run = threading.Lock()
+"""Held while a task runs: one run at a time in a worker process, whatever its number of threads."""
+
+
+def _scratch() -> str | None:
+    """The Dask worker's own directory (removed with the worker), or None outside a worker."""
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().local_directory)
+    except (ImportError, ValueError):
+        return None
+
+
+def run_chunk(chunk: Sequence[tuple[int, Callable[[], Any]]], files: Files | None = None) -> list[tuple[int, Any]]:
+    """The task a worker runs: every call of *chunk*, in order, with its index, one task at a time
+    per process; *files* (sent once per worker) are installed first."""
+    if files is not None:
+        install(files, _scratch())
+    with _one_run:
+        return [(i, call()) for i, call in chunk]
 
 
 class DaskExecutor(Executor):
@@ -86,10 +155,22 @@ class DaskExecutor(Executor):
     def __init__(self, address: str, *, chunk: int | None = None, timeout: float = 10.0):
         if importlib.util.find_spec("distributed") is None:
             raise DaskUnavailable(HINT)
-        self.address = address
+        self.address = check_address(address)
         self.chunk = chunk
         self.timeout = timeout
         self._client: Any = None
+        self._files: Any = None  # the future of the shipped Files, on the cluster
+        self.lost: str | None = None
+        """Set when the scheduler was lost during :meth:`map_unordered`: what happened, in words."""
+
+    def ship(self, files: Files) -> None:
+        """Send *files* to every worker once (workers that join later fetch them from the others);
+        every task of :meth:`map_unordered` then installs them before it runs."""
+        self.connect()
+        if not files.items:
+            self._files = None
+            return
+        self._files = self._client.scatter(files, broadcast=True, hash=False)
 
     def connect(self) -> None:
         """Reach the scheduler now (a usage problem is better found before anything runs)."""
@@ -105,7 +186,11 @@ class DaskExecutor(Executor):
     def close(self) -> None:
         """Disconnect (the cluster itself keeps running)."""
         if self._client is not None:
-            self._client.close()
+            self._files = None
+            try:
+                self._client.close()
+            except (OSError, TimeoutError, RuntimeError):  # the scheduler is gone already
+                pass
             self._client = None
 
     def __enter__(self) -> "DaskExecutor":
@@ -129,18 +214,51 @@ class DaskExecutor(Executor):
             pairs = list(enumerate(calls))
             chunks = [pairs[start:start + size] for start in range(0, len(pairs), size)]
             token = uuid.uuid4().hex[:12]
-            futures = [client.submit(run_chunk, chunk, key=f"btgen-{token}-{j}", pure=False)
+            futures = [client.submit(run_chunk, chunk, self._files, key=f"btgen-{token}-{j}", pure=False)
                        for j, chunk in enumerate(chunks)]  # fmt: skip
             owner = {f.key: chunk for f, chunk in zip(futures, chunks)}
-            for future in as_completed(futures, loop=client.loop):
-                if future.status == "finished":
-                    yield from future.result()
-                else:  # the scheduler gave up on it (KilledWorker) or it was lost: say so per call
-                    why = f"run on the Dask cluster failed: {type(future.exception()).__name__}: {future.exception()}"
-                    for i, _ in owner[future.key]:
+            finished: set[int] = set()
+            lost = False
+            try:
+                for future in as_completed(futures, loop=client.loop):
+                    if future.status == "finished":
+                        results = future.result()  # fetched from a worker: the connection may break here
+                        for i, result in results:
+                            finished.add(i)
+                            yield i, result
+                    elif client.status != "running":  # the scheduler is gone: no task of this run will finish now
+                        lost = True
+                        break
+                    else:  # the scheduler gave up on it (KilledWorker) or it was lost: say so per call
+                        why = f"run on the Dask cluster failed: {_failure(future)}"
+                        for i, _ in owner[future.key]:
+                            finished.add(i)
+                            yield i, TaskFailed(why)
+            except OSError:  # CommClosedError, a refused connection: the scheduler (or this link to it) is gone
+                lost = True
+            if lost:
+                self.lost = (f"the connection to the Dask scheduler at {self.address} was lost after "
+                             f"{len(finished)} of {len(calls)} runs had finished")  # fmt: skip
+                why = f"not run: the connection to the Dask scheduler at {self.address} was lost"
+                for i in range(len(calls)):
+                    if i not in finished:
                         yield i, TaskFailed(why)
         finally:
             pending = [f for f in futures if not f.done()]
-            if pending:
-                client.cancel(pending, force=True)
+            if pending and client.status == "running":
+                try:
+                    client.cancel(pending, force=True)
+                except OSError:
+                    pass
+
+
+def _failure(future: Any) -> str:
+    """``KilledWorker: ...``: why the cluster gave up on *future*."""
+    try:
+        exc = future.exception(timeout=5)
+    except Exception as problem:  # noqa: BLE001 - the client cannot tell any more (cancelled, disconnected)
+        exc = problem
+    if exc is None:
+        return f"the task was {future.status}"
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
 

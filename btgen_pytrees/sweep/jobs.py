@@ -1,8 +1,14 @@
 """The job a worker runs for one variation: validate its concrete case, run it, return a row.
 
-The job receives the case *data* (a concrete document), never a path, so it
-runs the same in a local worker process and on a Dask worker on another
-machine. It returns a :class:`VariationOutcome` - a batch
+The job receives the case *data* (a concrete document), never a path to read
+it from, and :class:`RunOptions` - every option of the command that changes a
+run (``--plugin``, ``--max-work``, ``--require-complete``; ``--system`` and the
+case's own system come as a resolved :class:`~btgen_pytrees.systems.SystemSpec`
+per case) - so it runs the same in a local worker process and on a Dask worker
+on another machine, in another directory. Files a run reads (a SUMO
+configuration and its network, a plugin file) are named by their absolute
+path on the client; on a cluster they were shipped (:mod:`.shipping`) and each
+path is mapped to the worker's copy. It returns a :class:`VariationOutcome` - a batch
 :class:`~btgen_pytrees.batch.Outcome` carrying the row for the sweep report -
 so :func:`btgen_pytrees.batch.process` (its pool, its progress bar, its error
 guard) runs sweeps and batches alike.
@@ -16,8 +22,38 @@ from typing import Any, Mapping, Sequence
 
 from ..batch import Outcome
 from ..leaves import Registry
+from ..leaves.plugins import is_path
+from ..systems.base import SystemSpec
+from .shipping import local
 
-__all__ = ["VariationOutcome", "ChunkOutcome", "job_variation", "job_chunk", "chunk_size", "job_run_shipped", "row_of", "margin_of"]
+__all__ = ["VariationOutcome", "ChunkOutcome", "RunOptions", "job_variation", "job_chunk", "chunk_size",
+           "job_run_shipped", "row_of", "margin_of"]  # fmt: skip
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What the command line says about every run, the same for each variation and file.
+
+    Attributes:
+        plugins: ``--plugin`` modules and files (files as absolute paths on the client)
+        max_work: the work budget (None: :data:`~btgen_pytrees.loader.MAX_WORK`)
+        require_complete: ``--require-complete``
+        files: the digest of the :class:`~.shipping.Files` shipped to the workers (Dask), None when
+            the runs read the client's own disk (the local pool)
+    """
+
+    plugins: tuple[str, ...] = ()
+    max_work: int | None = None
+    require_complete: bool = False
+    files: str | None = None
+
+    def local_plugins(self) -> tuple[str, ...]:
+        return tuple(local(self.files, p) if is_path(p) else p for p in self.plugins)
+
+    def local_system(self, system: SystemSpec | None) -> SystemSpec | None:
+        if system is None or system.config is None:
+            return system
+        return SystemSpec(system.type, local(self.files, system.config), system.options)
 
 
 @dataclass
@@ -62,29 +98,34 @@ def row_of(report: Any) -> dict[str, Any]:
     }
 
 
-def job_variation(label: str, plugins: Sequence[str], source: str, document: Mapping[str, Any],
-                  system: Any = None) -> VariationOutcome:  # fmt: skip
-    """Run one concrete case; code 0 pass, 1 fail/timeout/error (invalid input raises, as in batch jobs)."""
-    from ..loader import validate
+def job_variation(label: str, options: RunOptions, source: str, document: Mapping[str, Any],
+                  system: SystemSpec | None = None) -> VariationOutcome:  # fmt: skip
+    """Run one concrete case; code 0 pass, 1 fail/timeout/error (invalid input raises, as in batch jobs).
+
+    *system*: the system to run against (``--system``, or the case's own with its configuration
+    resolved on the client); None: the document's, resolved here (only for documents without files)."""
+    from ..loader import MAX_WORK, check_work, validate
     from ..run import run
 
-    registry = _registry(tuple(plugins))
-    case = validate(document, source, registry, system)
-    report = run(case, registry=registry)
+    registry = _registry(options.local_plugins())
+    case = validate(document, source, registry, options.local_system(system))
+    budget = MAX_WORK if options.max_work is None else options.max_work
+    check_work(case, budget)
+    report = run(case, registry=registry, require_complete=options.require_complete or None, max_work=budget)
     row = row_of(report)
     line = f"{report.verdict} after {report.duration:g} s" + (f": {row['message']}" if row["message"] else "")
     return VariationOutcome(label, 0 if report.passed else 1, line, row=row)
 
 
-def job_run_shipped(path: str, plugins: Sequence[str], raw: bytes | None, problems: Sequence[Any],
-                    target: str | None, plot: str | None = None, junit: bool = False, system: Any = None,
-                    max_work: int | None = None, require_complete: bool = False) -> Outcome:  # fmt: skip
+def job_run_shipped(path: str, options: RunOptions, raw: bytes | None, problems: Sequence[Any],
+                    target: str | None, plot: str | None = None, junit: bool = False,
+                    system: SystemSpec | None = None) -> Outcome:  # fmt: skip
     """``run`` of one file of a batch on a cluster: the file's bytes travel with the task.
 
     Only the reading differs from :func:`btgen_pytrees.batch.job_run`: both end
     in :func:`btgen_pytrees.batch.run_case`, whose outputs (report, JUnit, plot)
     come back as data for the client to write; *problems* are what reading the
-    file found on the client (then *raw* is None).
+    file found on the client (then *raw* is None). *system* as for :func:`job_variation`.
     """
     from ..batch import run_case
     from ..errors import InvalidTestCase
@@ -92,9 +133,9 @@ def job_run_shipped(path: str, plugins: Sequence[str], raw: bytes | None, proble
 
     if raw is None:
         raise InvalidTestCase(problems, path)
-    registry = _registry(tuple(plugins))
-    case = validate(parse_json(raw, path), path, registry, system)
-    return run_case(path, case, registry, target, plot, junit, max_work, require_complete)
+    registry = _registry(options.local_plugins())
+    case = validate(parse_json(raw, path), path, registry, options.local_system(system))
+    return run_case(path, case, registry, target, plot, junit, options.max_work, options.require_complete)
 
 
 @dataclass
@@ -104,16 +145,16 @@ class ChunkOutcome(Outcome):
     parts: list[Outcome] = field(default_factory=list)
 
 
-def job_chunk(label: str, plugins: Sequence[str], source: str, items: Sequence[tuple[str, Mapping[str, Any]]],
-              system: Any = None) -> ChunkOutcome:  # fmt: skip
+def job_chunk(label: str, options: RunOptions, source: str,
+              items: Sequence[tuple[str, Mapping[str, Any], SystemSpec | None]]) -> ChunkOutcome:  # fmt: skip
     """Run several variations in one task, each guarded on its own (one's error is not the others').
 
-    A run takes milliseconds, about what handing a task to a worker process costs;
-    a chunk pays that once for all its runs.
+    *items*: ``(label, document, system)`` per variation. A run takes milliseconds, about
+    what handing a task to a worker process costs; a chunk pays that once for all its runs.
     """
     from ..batch import _guard
 
-    parts = [_guard(job_variation, name, plugins, source, document, system) for name, document in items]
+    parts = [_guard(job_variation, name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} variations", parts=parts)
 
 

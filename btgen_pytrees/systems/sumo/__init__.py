@@ -143,6 +143,14 @@ class SumoType:
                     f"the state has {len(state)} letters")  # fmt: skip
         return out
 
+    def files(self, spec: SystemSpec) -> tuple[str, ...]:
+        """The files a run of *spec* reads (the ``.sumocfg`` and every file it names): what a
+        cluster ships to its workers. Empty when the configuration cannot be used (validation says why)."""
+        if not spec.config:
+            return ()
+        scenario = read_scenario(spec.config)
+        return () if scenario.problems else scenario.files
+
     def create(self, spec: SystemSpec, case: "TestCase") -> SumoSystem:
         if not spec.config:
             raise SystemFailure("a 'sumo' system needs 'config': a .sumocfg file")

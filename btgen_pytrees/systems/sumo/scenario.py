@@ -113,6 +113,7 @@ class Scenario:
         shapes: the network as drawn by the replay page's scene: ``("lane", width, (x0, y0, x1, y1, ...))``
             for every lane (internal ones too) and ``("junction", 0.0, (...))`` for every junction
             outline, in network coordinates; at most :data:`MAX_SHAPE_POINTS` points in all
+        files: absolute paths of every file SUMO reads: the configuration, then its inputs
     """
 
     config: str
@@ -124,6 +125,7 @@ class Scenario:
     signals: Mapping[str, int] = field(default_factory=dict)
     options: Mapping[str, str] = field(default_factory=dict)
     problems: tuple[str, ...] = ()
+    files: tuple[str, ...] = ()
     shapes: tuple[tuple[str, float, tuple[float, ...]], ...] = field(default=(), repr=False, compare=False)
 
 
@@ -272,8 +274,10 @@ def read_scenario(config: str) -> Scenario:
         demand.check()
     except ScenarioError as exc:
         return Scenario(config, problems=(str(exc),))
+    files = (config, *net, *inputs.get("route-files", []), *inputs.get("additional-files", []))
     return Scenario(config, demand.vehicles, frozenset(demand.routes), frozenset(demand.types), lanes,
-                    demand.route_edges, signals, options, shapes=tuple(shapes))  # fmt: skip
+                    demand.route_edges, signals, options, shapes=tuple(shapes),
+                    files=tuple(dict.fromkeys(files)))  # fmt: skip
 
 
 _SECTIONS = frozenset({

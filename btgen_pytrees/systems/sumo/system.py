@@ -46,6 +46,7 @@ import math
 import os
 import subprocess
 import sys
+import threading
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
 from py_trees.blackboard import Blackboard
@@ -78,7 +79,8 @@ _VARIABLES = (_SPEED, _ACCEL, _POSITION, _LANE_INDEX, _LATERAL, _DISTANCE, _ANGL
 _PLACE = (_POSITION, _ANGLE)  # every other vehicle: where it is, for the replay page's scene
 
 _active: "SumoSystem | None" = None
-"""The simulation libsumo is running in this process, if any."""
+"""The simulation libsumo is running in this process, if any (read and changed only under :data:`_claim`)."""
+_claim = threading.Lock()
 
 
 def tick_problem(tick: Any) -> str | None:
@@ -122,6 +124,13 @@ def libsumo_module() -> Any:
     except ImportError as exc:
         raise SystemFailure(f"the 'sumo' system needs libsumo ({exc}); install the extra: {INSTALL_HINT}") from None
     return libsumo
+
+
+def _release(system: "SumoSystem") -> None:
+    global _active
+    with _claim:
+        if _active is system:
+            _active = None
 
 
 class CommandError(RuntimeError):
@@ -178,17 +187,23 @@ class SumoSystem:
     def start(self, env: "Environment") -> None:
         global _active
         lib = libsumo_module()
-        if _active is not None:
-            raise SystemFailure("libsumo runs one simulation per process and another run is using it; "
-                                "run the cases one after the other (batch mode gives each worker process its own)")  # fmt: skip
+        with _claim:  # check and take at once: two threads must never both start libsumo
+            if _active is not None:
+                raise SystemFailure("libsumo runs one simulation per process and another run is using it; "
+                                    "run the cases one after the other (batch mode gives each worker process its own)")  # fmt: skip
+            _active = self
         args = self.arguments()
         t0 = self.timer() if self.timer else 0.0
         try:
             lib.start(args)
         except Exception as exc:  # noqa: BLE001 - libsumo.TraCIException, FatalTraCIError
             _close(lib)
+            _release(self)
             raise SystemFailure(f"SUMO could not load {self.scenario.config}: {_why(exc, args)}") from None
-        _active, self._lib, self._started = self, lib, True
+        except BaseException:
+            _release(self)
+            raise
+        self._lib, self._started = lib, True
         self._namespace = env.namespace + "/signals/"
         if self.timer:
             self.timing["start"] += self.timer() - t0
@@ -202,13 +217,13 @@ class SumoSystem:
         self._step()
 
     def close(self) -> None:
-        global _active
         if self._started:
             self._started = False
-            if _active is self:
-                _active = None
             t0 = self.timer() if self.timer else 0.0
-            _close(self._lib)
+            try:
+                _close(self._lib)
+            finally:
+                _release(self)  # only once libsumo is closed may another run start it
             if self.timer:
                 self.timing["close"] += self.timer() - t0
 

@@ -346,6 +346,67 @@ def test_the_sumo_cut_in_sweep_fails_where_the_gap_is_small_and_the_speed_high(t
                     "gap=8,ego_speed=21": "pass", "gap=8,ego_speed=25": "pass"}  # fmt: skip
 
 
+def test_every_variation_is_validated_as_a_stream() -> None:
+    """Issue 20 item 13: validating a sweep holds one variation's document at a time (was: every one of them)."""
+    import tracemalloc
+
+    chain = [entry(f"A{i}", [f"A{i - 1}"] if i else [], duration="$d") for i in range(20)]
+    data = swept({"d": 1}, {"d": {"from": 1, "to": 1500, "step": 1}}, *chain, timeout=1e6, tick=1)
+    load_sweep(swept({"d": 1}, {"d": [1, 2]}, *chain, timeout=1e6, tick=1))  # caches filled before measuring
+    tracemalloc.start()
+    try:
+        assert load_sweep(data).count == 1500
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 3_000_000, peak  # 1,500 documents of ~8 kB held at once took 12 MB
+
+
+def test_a_range_whose_values_collide_is_refused(tmp_path: pathlib.Path) -> None:
+    """Issue 19 item 10: six labels, one value - refused (exit 2, the step's JSON path), nothing run or written."""
+    data = swept({"x": 0}, {"x": {"from": 0, "to": 5e-13, "step": 1e-13}}, entry("A", duration="$x"))
+    assert problems(data) == [("/variations/x/step", "step 1e-13 is finer than the range's values keep: values 1 and 2 "
+                               "are both 0 (values are rounded to 12 decimal places); use a larger step")]  # fmt: skip
+    big = swept({"x": 0}, {"x": {"from": 1e16, "to": 1e16 + 8, "step": 1}}, entry("A", duration="$x"), timeout=1e17)
+    assert [p for p, _ in problems(big)] == ["/variations/x/step"]  # floats 2 apart there: 1e16 + 1 == 1e16
+    fine = swept({"x": 0}, {"x": {"from": 0, "to": 5e-11, "step": 1e-11}}, entry("A", duration="$x"))
+    assert [v.label for v in load_sweep(fine)] == ["x=0", "x=1e-11", "x=2e-11", "x=3e-11", "x=4e-11", "x=5e-11"]
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(data))
+    for command in (["run", str(path), "--json", str(tmp_path / "r.json")], ["expand", str(path), "--out-dir", str(tmp_path / "x")],
+                    ["validate", str(path)]):  # fmt: skip
+        result = cli(*command)
+        assert result.returncode == 2 and "/variations/x/step: step 1e-13 is finer" in result.stderr, command
+    assert not (tmp_path / "r.json").exists() and not (tmp_path / "x").exists()
+
+
+@needs_sumo
+def test_every_expanded_sumo_case_runs_where_it_was_written_and_gives_its_rows_verdict(tmp_path: pathlib.Path) -> None:
+    """Issue 19 item 9: the config of an expanded case is rewritten relative to --out-dir."""
+    data = json.loads((ROOT / "examples" / "sumo" / "cut_in_sweep.json").read_text())
+    data["variations"] = {"gap": [1, 8], "ego_speed": [25]}
+    cases = tmp_path / "cases"
+    cases.mkdir()
+    for name in ("cut_in.sumocfg", "cut_in.rou.xml", "road.net.xml"):
+        (cases / name).write_bytes((ROOT / "examples" / "sumo" / name).read_bytes())
+    (cases / "sweep.json").write_text(json.dumps(data))
+    assert cli("run", "sweep.json", "--json", str(tmp_path / "r.json"), cwd=cases).returncode == 1
+    rows = {r["label"]: r["verdict"] for r in json.loads((tmp_path / "r.json").read_text())["rows"]}
+    assert rows == {"gap=1,ego_speed=25": "fail", "gap=8,ego_speed=25": "pass"}
+    out = tmp_path / "expanded" / "deeper"
+    assert cli("expand", "sweep.json", "--out-dir", str(out), cwd=cases).returncode == 0
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    for label, verdict in rows.items():
+        written = out / f"cut_in_sweep[{label}].json"
+        assert json.loads(written.read_text())["system"]["config"] == "../../cases/cut_in.sumocfg"
+        result = cli("run", str(written), cwd=elsewhere)
+        assert result.returncode == (0 if verdict == "pass" else 1), result.stderr
+        assert f"cut_in_sweep: {verdict.upper()}" in result.stdout
+    assert cli("expand", "sweep.json", "--out-dir", ".", cwd=cases).returncode == 0  # beside the sweep: as written
+    assert json.loads((cases / "cut_in_sweep[gap=1,ego_speed=25].json").read_text())["system"]["config"] == "cut_in.sumocfg"
+
+
 def test_the_sweep_benchmark_runs_and_every_engine_agrees(capsys: pytest.CaptureFixture[str]) -> None:
     sys.path.insert(0, str(ROOT))  # benchmarks/ is beside the package (see test_benchmarks_smoke)
     from benchmarks import sweep as bench

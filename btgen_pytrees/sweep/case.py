@@ -28,7 +28,7 @@ from typing import Any, Iterator, Mapping
 
 from ..errors import InvalidTestCase, Problem
 from ..leaves import Registry
-from .check import count_problem, meaning_problems, shape_problems
+from .check import collision_problems, count_problem, meaning_problems, shape_problems
 from .parameters import find_sites, substitute
 from .variations import Point, Value, Variations, label
 
@@ -174,8 +174,15 @@ def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: 
     too_many = count_problem(data, max_variations)
     if too_many is not None:
         raise InvalidTestCase([too_many], name)
+    collisions = list(collision_problems(data)) if has_variations(data) else []
+    if collisions:
+        raise InvalidTestCase(collisions, name)
     _check_variations(sweep, registry, check_all, system, max_work)
     return sweep
+
+
+_MAX_DISTINCT = 1000
+"""Most distinct problems :func:`load_sweep` collects over all variations."""
 
 
 def _check_variations(sweep: Sweep, registry: Registry, every: bool, system: Any = None,
@@ -187,27 +194,38 @@ def _check_variations(sweep: Sweep, registry: Registry, every: bool, system: Any
     """
     from ..loader import MAX_WORK, check_work, validate
 
-    seen: dict[Problem, list[str]] = {}
-    defaults = "the defaults"
-    cases = [(defaults, sweep.document(sweep.defaults) if sweep.sites or "parameters" in sweep.template else sweep.template)]
-    for label_, document in cases + ([(v.label, v.document) for v in sweep] if every else []):
+    seen: dict[Problem, tuple[int, str | None, bool]] = {}  # problem -> (variations with it, the first, the defaults too)
+    defaults = sweep.document(sweep.defaults) if sweep.sites or "parameters" in sweep.template else sweep.template
+    budget = MAX_WORK if max_work is None else max_work
+
+    def check(document: Mapping[str, Any], label_: str | None) -> None:
         try:
-            check_work(validate(document, sweep.source, registry, system), MAX_WORK if max_work is None else max_work)
+            check_work(validate(document, sweep.source, registry, system), budget)
         except InvalidTestCase as error:
             for problem in error.problems:
-                seen.setdefault(problem, []).append(label_)
+                if problem not in seen and len(seen) >= _MAX_DISTINCT:
+                    continue  # the CLI prints at most 100; a problem naming each variation's value stays bounded
+                count, first, with_defaults = seen.get(problem, (0, None, False))
+                if label_ is None:
+                    seen[problem] = (count, first, True)
+                else:
+                    seen[problem] = (count + 1, first if first is not None else label_, with_defaults)
+
+    check(defaults, None)
+    if every:  # one variation at a time: a million of them never live at once (issue 20 item 13)
+        for variation in sweep:
+            check(variation.document, variation.label)
     if not seen:
         return
     problems = []
-    for problem, labels in seen.items():
-        varied = [x for x in labels if x != defaults]
-        if every and len(varied) < sweep.count:
-            if not varied:
+    for problem, (count, first, _) in seen.items():
+        if every and count < sweep.count:
+            if not count:
                 where = "with the defaults"
-            elif len(varied) == 1:
-                where = f"in variation: [{varied[0]}]"
+            elif count == 1:
+                where = f"in variation: [{first}]"
             else:
-                where = f"in {len(varied)} of {sweep.count} variations: [{varied[0]}], ..."
+                where = f"in {count} of {sweep.count} variations: [{first}], ..."
             problem = Problem(problem.path, f"{problem.message} ({where})", problem.cause)
         problems.append(problem)
     raise InvalidTestCase(sorted(problems, key=_sort_key), sweep.source)

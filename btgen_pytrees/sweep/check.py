@@ -17,9 +17,9 @@ from typing import Any, Iterable, Iterator, Mapping
 
 from ..errors import PathPart, Problem
 from ..validation import SchemaValidator
-from .variations import BLOCK_KEYS, RANGE_EPSILON, Variations
+from .variations import BLOCK_KEYS, RANGE_EPSILON, Variations, format_value
 
-__all__ = ["shape_problems", "meaning_problems", "count_problem", "axis_size"]
+__all__ = ["shape_problems", "meaning_problems", "count_problem", "collision_problems", "axis_size"]
 
 _MESSAGE_LIMIT = 200
 
@@ -125,3 +125,31 @@ def count_problem(doc: Mapping[str, Any], limit: int) -> Problem | None:
         shown = "too many" if not math.isfinite(count) else f"{count:,}" if count < 10**15 else f"about {float(count):.3g}"
         return Problem(("variations",), f"{shown} variations; the limit is {limit:,} (raise it with --max-variations)", "limit")
     return None
+
+
+def collision_problems(doc: Mapping[str, Any]) -> Iterator[Problem]:
+    """Ranges whose step is finer than their values keep (a count-checked block).
+
+    Range values are computed as ``round(from + k * step, 12)`` in floating point, so a step
+    below about 1e-12, or below the floating-point spacing at the range's magnitude (``from:
+    1e20, step: 1``), gives equal values for different *k*: several variations would run the
+    same case under different labels. Such a range is refused, naming the first two values
+    that collide. A step well above both spacings cannot collide and is not scanned.
+    """
+    for axis in Variations.parse(doc.get("variations")).grid:
+        if axis.kind != "range" or all(isinstance(axis.spec[k], int) for k in ("from", "step")):
+            continue
+        step = axis.spec["step"]
+        reach = 2 * max(abs(axis.spec["from"]), abs(axis.spec["to"])) + step
+        if step > 8 * math.ulp(reach) + 2e-12:
+            continue
+        previous = axis.value(0)
+        for k in range(1, axis.size()):
+            value = axis.value(k)
+            if value == previous:
+                yield Problem(("variations", axis.name, "step"),
+                              f"step {step!r} is finer than the range's values keep: values {k} and {k + 1} are both "
+                              f"{format_value(value)} (values are rounded to 12 decimal places); use a larger step",
+                              "parameter")  # fmt: skip
+                break
+            previous = value

@@ -67,7 +67,7 @@ def cmd_expand(args: argparse.Namespace) -> int:
     os.makedirs(args.out_dir, exist_ok=True)
     count = 0
     for variation in sweep:
-        doc = dict(variation.document)
+        doc = _moved(dict(variation.document), sweep.source, args.out_dir)
         where = f"variation {variation.label} of {os.path.basename(sweep.source)}" if variation.label else None
         if where:
             doc["description"] = f"{doc['description']} ({where})" if doc.get("description") else where.capitalize()
@@ -76,6 +76,19 @@ def cmd_expand(args: argparse.Namespace) -> int:
         count += 1
     print(f"{count} case{'s' if count != 1 else ''} written to {args.out_dir}")
     return EXIT_OK
+
+
+def _moved(document: dict[str, Any], source: str, out_dir: str) -> dict[str, Any]:
+    """*document* (from the file *source*) as a file in *out_dir*: its system's ``config`` is relative to the case
+    file, so it is rewritten relative to *out_dir* (absolute when no relative path leads there, e.g. another drive)."""
+    spec = system_spec(document, source)
+    if spec is None or spec.config is None:
+        return document
+    try:
+        config = os.path.relpath(spec.config, os.path.abspath(out_dir))
+    except ValueError:
+        config = spec.config
+    return {**document, "system": {**document["system"], "config": config}}
 
 
 class Refused(Exception):

@@ -102,15 +102,13 @@ def make_executor(args: argparse.Namespace) -> Any:
         Refused: no scheduler address, a malformed or unsupported one, the extra is missing,
             or the scheduler cannot be reached.
     """
-    if getattr(args, "executor", None) != "dask":
+    address = checked_scheduler(args)
+    if address is None:
         return None
     import logging
 
-    from .executors import DaskExecutor, DaskUnavailable, scheduler_address
+    from .executors import DaskExecutor, DaskUnavailable
 
-    address = scheduler_address(args.scheduler)
-    if address is None:
-        raise Refused("--executor dask needs --scheduler tcp://HOST:PORT (or DASK_SCHEDULER_ADDRESS)")
     try:
         executor = DaskExecutor(address)
         executor.connect()
@@ -121,6 +119,25 @@ def make_executor(args: argparse.Namespace) -> Any:
         for name in [n for n in logging.root.manager.loggerDict if n == "distributed" or n.startswith("distributed.")]:
             logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     return executor
+
+
+def checked_scheduler(args: argparse.Namespace) -> str | None:
+    """The scheduler address of ``--executor dask``, checked without connecting (None for the local pool).
+
+    Raises:
+        Refused: no address, or a malformed or unsupported one.
+    """
+    if getattr(args, "executor", None) != "dask":
+        return None
+    from .executors import DaskUnavailable, check_address, scheduler_address
+
+    address = scheduler_address(args.scheduler)
+    if address is None:
+        raise Refused("--executor dask needs --scheduler tcp://HOST:PORT (or DASK_SCHEDULER_ADDRESS)")
+    try:
+        return check_address(address)
+    except DaskUnavailable as problem:
+        raise Refused(str(problem)) from None
 
 
 def run_options(args: argparse.Namespace) -> RunOptions:
@@ -223,6 +240,7 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
     for option in ("trace", "replay"):
         if getattr(args, option, None):
             raise Refused(f"--{option} shows a single run; a sweep has many (run one variation from 'expand')")
+    checked_scheduler(args)  # a malformed address is refused before the variations are validated
     sweep = _load(args, data, system)
     executor = make_executor(args)
     variations = list(sweep)

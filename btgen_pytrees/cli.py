@@ -31,6 +31,7 @@ from .render.dot import png_depth
 from .systems import SystemSpec
 from .sweep.case import has_variations
 from .sweep.command import Refused
+from .sweep.overrides import ParameterError, choose, given_values, parse_set, read_params
 from .timeline import timeline
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -252,6 +253,8 @@ def _single(args: argparse.Namespace) -> list[str] | None:
     if len(args.files) == 1 and not os.path.isdir(args.files[0]) and not args.out_dir:
         args.file = args.files[0]
         return None
+    if args.set or args.params:
+        raise UsageError("--set/--params choose one variation of one file (not a directory, several files or --out-dir)")
     return _expand(args)
 
 
@@ -314,7 +317,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     _check_output(args.output, "-o", [args.file])
     _refuse_binary_to_terminal(fmt, args.output)
     registry = _registry(args)
-    case = load(args.file, registry=registry)
+    chosen = _chosen(args, registry)
+    case = load(args.file, registry=registry) if chosen is None else validate(chosen, args.file, registry=registry)
     for line in warning_lines(case):
         _err(line)
     root = generate(case, registry=registry)
@@ -364,6 +368,23 @@ def _system(args: argparse.Namespace) -> SystemSpec | None:
     if not kind or (colon and not config):
         raise UsageError(f"--system {args.system}: expected TYPE or TYPE:CONFIG")
     return SystemSpec(kind, os.path.abspath(config) if config else None)
+
+
+def _chosen(args: argparse.Namespace, registry: Registry | None = None) -> dict[str, Any] | None:
+    """``--set``/``--params``: the one variation they choose of ``args.file`` (None without them)."""
+    sets, params = getattr(args, "set", None) or [], getattr(args, "params", None)
+    if not sets and not params:
+        return None
+    if getattr(args, "file", None) is None:
+        raise UsageError("--set/--params choose one variation of one file")
+    given = read_params(params) if params else {}
+    pairs = [parse_set(text) for text in sets]
+    twice = sorted({n for i, (n, _) in enumerate(pairs) if n in dict(pairs[:i])})
+    if twice:
+        raise UsageError(f"--set {twice[0]}: given twice")
+    given.update(given_values(dict(pairs)))
+    system = _system(args) if hasattr(args, "system") else None
+    return choose(load_json(args.file), args.file, given, registry=registry or _registry(args), system=system).document
 
 
 def _replay_check(args: argparse.Namespace) -> None:
@@ -459,7 +480,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         _plot_check(args.plot)
         plot_format(args.plot)
-    data = load_json(args.file)
+    data = _chosen(args) or load_json(args.file)
     if has_variations(data):  # a sweep: every variation (btgen_pytrees.sweep)
         from .sweep.command import run_sweep
 
@@ -510,7 +531,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 def cmd_expand(args: argparse.Namespace) -> int:
     from .sweep.command import cmd_expand as expand
 
-    return expand(args)
+    return expand(args, _chosen(args))
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
@@ -583,7 +604,12 @@ def _parser() -> argparse.ArgumentParser:
     plugin.add_argument("--plugin", action="append", metavar="MODULE|FILE.py",
                         help="import MODULE (the current directory is importable) or the Python file FILE.py and call its register(registry) to add leaves or systems (repeatable)")  # fmt: skip
 
-    show = sub.add_parser("show", parents=[plugin, many], help="print the generated tree (default command)")
+    chosen = argparse.ArgumentParser(add_help=False)
+    chosen.add_argument("--set", action="append", metavar="NAME=VALUE",
+                        help="one variation: parameter NAME takes VALUE (a number, true or false), the others their defaults (repeatable)")  # fmt: skip
+    chosen.add_argument("--params", metavar="FILE.json", help="one variation: parameter values from a JSON object (--set wins)")
+
+    show = sub.add_parser("show", parents=[plugin, many, chosen], help="print the generated tree (default command)")
     show.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
     show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: from the -o suffix, else unicode if the terminal can show it, else ascii)")
     show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout (.svg/.png/.dot/.json/.xml/.txt choose the format)")
@@ -598,7 +624,7 @@ def _parser() -> argparse.ArgumentParser:
     validate.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
     validate.set_defaults(func=cmd_validate)
 
-    run = sub.add_parser("run", parents=[plugin, many], help="run the tree against its system (default: the virtual-clock simulator) and print verdicts")
+    run = sub.add_parser("run", parents=[plugin, many, chosen], help="run the tree against its system (default: the virtual-clock simulator) and print verdicts")
     run.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
     run.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json; a sweep's: schemas/sweep-report.schema.json)")
     run.add_argument("--junit", metavar="XML", help="write the report as JUnit XML (several files: one file, a testsuite per case)")
@@ -622,7 +648,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="with --executor dask: the scheduler, tcp://HOST:PORT (default: $DASK_SCHEDULER_ADDRESS)")  # fmt: skip
     run.set_defaults(func=cmd_run)
 
-    expand = sub.add_parser("expand", parents=[plugin], help="write each variation of a sweep as a concrete test case")
+    expand = sub.add_parser("expand", parents=[plugin, chosen], help="write each variation of a sweep as a concrete test case")
     expand.add_argument("file", metavar="FILE", help="test case JSON file with variations")
     expand.add_argument("--out-dir", required=True, metavar="DIR", help="write name[gap=5,...].json files into DIR")
     expand.add_argument("--max-variations", type=int, metavar="N", help="refuse more than N variations (default 10000)")
@@ -671,6 +697,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return func(args)
     except (UsageError, Refused) as problem:
         _err(f"btgen_pytrees: {problem}")
+        return EXIT_INVALID
+    except ParameterError as problem:
+        for line in problem.lines:
+            _err(f"btgen_pytrees: {line}")
         return EXIT_INVALID
     except InvalidTestCase as error:
         return _report_invalid(error)

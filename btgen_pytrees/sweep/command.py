@@ -61,9 +61,9 @@ def _load(args: argparse.Namespace, data: Mapping[str, Any] | None = None, syste
                       max_work=getattr(args, "max_work", None))  # fmt: skip
 
 
-def cmd_expand(args: argparse.Namespace) -> int:
-    """Write every variation as a concrete case file into ``--out-dir``."""
-    sweep = _load(args)
+def cmd_expand(args: argparse.Namespace, data: Mapping[str, Any] | None = None) -> int:
+    """Write every variation (or the one of *data*, chosen with ``--set``/``--params``) into ``--out-dir``."""
+    sweep = _load(args, data)
     os.makedirs(args.out_dir, exist_ok=True)
     count = 0
     for variation in sweep:

@@ -1,0 +1,159 @@
+"""Parameters from the command line: ``--set NAME=VALUE`` and ``--params FILE.json``.
+
+``run``/``show``/``expand`` of a parameterised case (a sweep or not) with
+``--set limit=25 --set top_speed=30`` or ``--params chosen.json`` (a JSON object
+``{"limit": 25}``) work on *one* variation: the given parameters take the given
+values, every other parameter its default from the ``parameters`` block, and the
+``variations`` block is left out. ``--set`` wins over ``--params`` for a name
+given by both.
+
+Each given value is checked as a sweep's values are: the name must be declared
+in ``parameters`` (otherwise "did you mean"), and the value must have its
+default's type - ``true``/``false`` for a boolean default, a number for a number
+(``--set`` reads ``VALUE`` as JSON: ``25``, ``2.5``, ``true``). The concrete
+case is then validated like the sweep's defaults, and named after the values it
+ran with, ``fig1_sweep[top_speed=30,limit=25,ramp_time=2]``, so the table, the
+JSON report and the JUnit XML say which parameters were used.
+
+>>> data = {"name": "s", "parameters": {"d": 1, "on": True}, "variations": {"d": [1, 2]},
+...         "execute": [{"id": "A", "kind": "behavior", "action": "hold", "params": {"duration": "$d"}}]}
+>>> chosen = choose(data, "s.json", given_values({"d": 3}))
+>>> chosen.document["name"], chosen.document["execute"][0]["params"]
+('s[d=3,on=true]', {'duration': 3})
+>>> choose(data, "s.json", given_values({"dd": 3}))
+Traceback (most recent call last):
+...
+btgen_pytrees.sweep.overrides.ParameterError: --set dd=3: unknown parameter 'dd' (did you mean 'd'?)
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import os
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+from ..errors import InvalidTestCase, Problem, shorten
+from ..leaves import Registry
+from ..loader import load_json
+from .case import load_sweep
+from .variations import Value, format_value, label
+
+__all__ = ["Given", "Chosen", "ParameterError", "parse_set", "given_values", "read_params", "choose"]
+
+MAX_NAME = 200
+"""A case name's longest (the schema's ``maxLength``); a longer ``name[label]`` has its label shortened."""
+
+
+class ParameterError(ValueError):
+    """Given parameters that cannot be used (unknown, wrong type, malformed): one message per line."""
+
+    def __init__(self, lines: Sequence[str]):
+        super().__init__("\n".join(lines))
+        self.lines = list(lines)
+
+
+@dataclass(frozen=True)
+class Given:
+    """A value given for a parameter, and where it was given (for messages)."""
+
+    value: Any
+    origin: str
+
+
+@dataclass(frozen=True)
+class Chosen:
+    """One variation chosen on the command line.
+
+    Attributes:
+        values: every parameter's value (given or default), in the ``parameters`` block's order
+        given: the parameters given, with their values
+        document: the concrete case (no ``parameters``/``variations``), named ``name[label]``
+    """
+
+    values: dict[str, Value]
+    given: dict[str, Value]
+    document: dict[str, Any]
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(name)
+
+
+def parse_set(text: str) -> tuple[str, Any]:
+    """``NAME=VALUE`` (VALUE as JSON: a number, ``true`` or ``false``) as ``(name, value)``."""
+    name, equals, raw = text.partition("=")
+    name = name.strip()
+    if not equals or not name:
+        raise ParameterError([f"--set {text}: expected NAME=VALUE, e.g. --set gap=4"])
+    try:
+        value = json.loads(raw, parse_constant=_no_constant)
+    except ValueError:
+        raise ParameterError([f"--set {text}: {raw.strip()!r} is not a number, true or false"]) from None
+    return name, value
+
+
+def given_values(values: Mapping[str, Any], origin: str = "--set") -> dict[str, Given]:
+    """*values* as given on the command line (``--set name=value`` in messages) or in a file."""
+    return {name: Given(value, f"{origin} {name}={json.dumps(value)}" if origin == "--set" else f"{origin}: /{name}")
+            for name, value in values.items()}  # fmt: skip
+
+
+def read_params(path: str) -> dict[str, Given]:
+    """``--params FILE.json``: a JSON object of parameter values (read with the loader's limits)."""
+    data = load_json(path)
+    if not isinstance(data, dict):
+        raise InvalidTestCase([Problem((), "expected a JSON object of parameter values, e.g. {\"gap\": 4}", "json")], path)
+    return given_values(data, path)
+
+
+def _type_problem(value: Any, default: Value) -> str | None:
+    if isinstance(default, bool):
+        return None if isinstance(value, bool) else f"must be true or false, like its default ({format_value(default)})"
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return f"must be a number, like its default ({format_value(default)})"
+    return None
+
+
+def check_given(given: Mapping[str, Given], defaults: Mapping[str, Value]) -> list[str]:
+    """A line per given parameter that is not declared or has the wrong type."""
+    lines = []
+    for name, item in given.items():
+        if name not in defaults:
+            hint = difflib.get_close_matches(name, list(defaults), n=1)
+            tip = (f" (did you mean '{hint[0]}'?)" if hint else f" (declared: {', '.join(defaults)})") if defaults else (
+                " (the case declares no parameters)")  # fmt: skip
+            lines.append(f"{item.origin}: unknown parameter '{name}'{tip}")
+            continue
+        problem = _type_problem(item.value, defaults[name])
+        if problem:
+            lines.append(f"{item.origin}: parameter '{name}' {problem}")
+    return lines
+
+
+def choose(data: Any, source: str, given: Mapping[str, Given], *, registry: Registry | None = None,
+           system: Any = None) -> Chosen:  # fmt: skip
+    """The variation of the case *data* (read from *source*) with the *given* values, validated.
+
+    Raises:
+        ParameterError: a given name is not declared or its value has the wrong type
+        InvalidTestCase: the case (with those values) is not valid
+    """
+    declared = data.get("parameters") if isinstance(data, dict) else None
+    defaults: dict[str, Value] = dict(declared) if isinstance(declared, dict) else {}
+    problems = check_given(given, defaults)
+    if problems:
+        raise ParameterError(problems)
+    values = {**defaults, **{name: item.value for name, item in given.items()}}
+    single = {k: v for k, v in data.items() if k != "variations"}
+    single["parameters"] = values
+    sweep = load_sweep(single, registry=registry, source_name=source, system=system, check_all=False)
+    document = sweep.document(values)
+    name = document.get("name") if isinstance(document.get("name"), str) else os.path.basename(source)
+    shown = label(tuple(values.items()))
+    if len(name) + len(shown) + 2 > MAX_NAME:
+        shown = shorten(shown, max(MAX_NAME - len(name) - 2, 10))
+    document["name"] = f"{name}[{shown}]"[:MAX_NAME]
+    return Chosen(values, {name: item.value for name, item in given.items()}, document)

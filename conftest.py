@@ -1,4 +1,4 @@
-"""Every example is a test item of the project's own suite (docs/pytest.md#the-projects-own-suite).
+"""Every example is a test item of the project's own suite (docs/pytest.md#this-projects-own-suite).
 
 ``pyproject.toml`` collects ``examples/**.json`` with the pytest plugin. Most
 examples pass; the ones below *fail by design* - they show what a failing run
@@ -13,8 +13,13 @@ path under ``examples/``) to the rule saying which of its runs fail, and why.
   version of it may move the boundary; a pass there is reported as XPASS, not
   as an error. The runs outside the rule must pass.
 
-``host_app/`` holds a host application and its leaf plugin (``btgen_plugins`` in
+``examples/host_app/`` holds a host application and its leaf plugin (``btgen_plugins`` in
 ``pyproject.toml`` registers it for ``pick.json``), not tests.
+
+This is the root conftest (loaded for every path of the repository, so ``pytest examples/``
+alone sees it) rather than one in ``examples/``: conftests outside packages are all the module
+``conftest``, and ``--doctest-modules`` imports ``tests/conftest.py`` by that name - with a second
+one in a test path loaded after it, that import finds the wrong file.
 """
 
 from __future__ import annotations
@@ -24,9 +29,9 @@ from typing import Any, Callable, Mapping
 
 import pytest
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parent / "examples"
 
-collect_ignore = ["host_app/app.py", "host_app/robot.py"]
+collect_ignore = ["examples/host_app/app.py", "examples/host_app/robot.py"]
 
 EXPECTED_FAIL: dict[str, tuple[Callable[[Mapping[str, Any]], bool], str]] = {
     "fig1_failing.json": (lambda p: True, "fig1 with a speed limit the ramp exceeds: fails by design"),

@@ -17,7 +17,7 @@ Registered by :mod:`btgen_pytrees.pytest_plugin` when a session asks for it.
   the verdict table with the margins of failed criteria, why (what was still
   waiting), and the tree with the last status of every node - no traceback.
   With ``--btgen-artifacts DIR`` a failing item also writes its JSON report,
-  plot (the ``plot`` extra) and replay page (Graphviz) into DIR.
+  plot (the ``plot`` extra) and replay page into DIR.
 """
 
 from __future__ import annotations
@@ -38,10 +38,9 @@ from .leaves.plugins import is_path
 from .loader import check_work, load_json, validate
 from .model import TestCase
 from .output import commit
-from .render import GraphvizMissing
 from .run import Report, run, run_tree
 from .run.plot import PlotUnavailable, plot_bytes, require_matplotlib
-from .run.replay import replay_html, require_graphviz
+from .run.replay import replay_html
 from .sweep.case import has_variations, load_sweep
 from .sweep.overrides import MAX_NAME, choose, given_values
 from .systems import System, SystemSpec
@@ -222,11 +221,7 @@ def write_artifacts(directory: str, nodeid: str, report: Report, case: TestCase,
         outputs.append((base + ".plot.svg", plot_bytes(report, case, "svg")))
     except PlotUnavailable as missing:
         notes.append(f"the plot: {missing}")
-    try:
-        require_graphviz()
-        outputs.append((base + ".replay.html", replay_html(report, case, generate(case, registry=registry))))
-    except GraphvizMissing as missing:
-        notes.append(f"the replay page: {missing}")
+    outputs.append((base + ".replay.html", replay_html(report, case, generate(case, registry=registry))))
     os.makedirs(directory, exist_ok=True)
     return commit(outputs), notes
 

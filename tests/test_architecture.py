@@ -58,6 +58,7 @@ LAYERS: dict[str, int] = {
     # L9: the faces: command line, pytest plugin, the package's own face
     "btgen_pytrees.cli": 9,
     "btgen_pytrees.pytest_plugin": 9,
+    "btgen_pytrees.pytest_cases": 9,
     "btgen_pytrees.__main__": 9,
     "btgen_pytrees": 9,
 }

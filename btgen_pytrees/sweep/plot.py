@@ -8,8 +8,9 @@
   failures lie on top.
 
 Colour is the verdict (pass green, fail red, timeout orange, error grey). When
-the oracles report a robustness *margin* (how far from failing; negative when
-failed), colour is the margin instead, on a red-yellow-green scale centred on
+the rows have a robustness *margin* (the oracle's: how far from failing;
+negative when failed), colour is the margin instead (an infinite one takes its
+end's colour), on a red-yellow-green scale centred on
 zero, and every variation that did not pass is also marked with a cross - so
 the map shows how close the passing region is to failing, not just where the
 boundary is. A random sweep's ``sample`` number is not an axis.

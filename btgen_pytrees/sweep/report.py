@@ -5,9 +5,9 @@ hold only virtual times, so the same file gives the same report bytes on one
 worker or forty.
 
 "Worst first" (the summary and the map's legend): errors, then timeouts, then
-failures, then passes; within a verdict, the smallest margin first when the
-oracles report margins (most clearly failed, or closest to failing), then
-the sweep's order.
+failures, then passes; within a verdict, the smallest margin first (most
+clearly failed, or closest to failing; rows without one after those with one),
+then the earliest failure, then the sweep's order.
 """
 
 from __future__ import annotations
@@ -65,7 +65,9 @@ class SweepReport:
         varied: the varied parameters, in label order
         rows: one dict per variation, in order: ``index``, ``label``, ``parameters``
             (the varied values), ``verdict``, ``message``, ``duration``, ``ticks``,
-            ``margin`` (the smallest criterion margin, or None) and ``oracles``
+            ``margin`` (the run's oracle margin, :attr:`Report.margin
+            <btgen_pytrees.run.Report.margin>`, or None) and ``oracles`` (each
+            criterion's ``id``, ``verdict``, ``margin``, ``at``, ``message``)
     """
 
     test: str

@@ -237,4 +237,4 @@ def test_a_leaf_that_raises_gives_verdict_error_not_a_traceback() -> None:
     registry.register("broken", Broken)
     report = run(btgen_pytrees.load(case(entry("A"), entry("B", ["A"], action="broken")), registry=registry), registry=registry)
     assert (report.verdict, report.duration, report.message) == ("error", 1.0, "B raised RuntimeError: motor driver offline")
-    assert [(e.status, e.start, e.end) for e in report.execute] == [("success", 0.0, 1.0), ("failure", 1.0, 1.0)]
+    assert [(e.status, e.start, e.end) for e in report.execute] == [("success", 0.0, 1.0), ("error", 1.0, 1.0)]

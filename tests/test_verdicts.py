@@ -189,3 +189,66 @@ def test_require_complete_applies_to_a_batch(tmp_path: pathlib.Path) -> None:
         (tmp_path / f"{name}.json").write_text(json.dumps(early_exit_case()))
     assert main(["run", str(tmp_path / "a.json"), str(tmp_path / "b.json"), "-j", "1"]) == 0
     assert main(["run", str(tmp_path / "a.json"), str(tmp_path / "b.json"), "-j", "1", "--require-complete"]) == 1
+
+
+# -- an error is an error everywhere (issue 19, item 13) ----------------------------------------
+
+
+def test_a_run_that_erred_is_an_error_in_junit_the_table_json_and_the_trace(tmp_path: pathlib.Path) -> None:
+    """A leaf that raises: JUnit <error> (never <failure>), the table's execute row and the entry say error."""
+    import btgen_pytrees
+    import py_trees
+
+    from btgen_pytrees.leaves import default_registry
+    from btgen_pytrees.run import run
+
+    class Broken(py_trees.behaviour.Behaviour):
+        def __init__(self, e: Any, env: Any) -> None:
+            super().__init__(name=e.name)
+
+        def update(self) -> py_trees.common.Status:
+            raise RuntimeError("motor driver offline")
+
+    registry = default_registry()
+    registry.register("broken", Broken)
+    data = case(entry("A", duration=0.5), entry("B", ["A"], action="broken"), entry("C", duration=2),
+                criteria=[crit("R1", "record", "x <= 1")], signals={"x": 0})  # fmt: skip
+    lines: list[str] = []
+    loaded = btgen_pytrees.load(data, registry=registry)
+    report = run(loaded, registry=registry, trace=lines.append)
+    assert (report.verdict, report.message) == ("error", "B raised RuntimeError: motor driver offline")
+    assert [(e.id, e.status) for e in report.execute] == [("A", "success"), ("B", "error"), ("C", "stopped")]
+    failures, errors, _ = junit_counts(report.to_junit())
+    assert (failures, errors) == (0, 1)
+    execute = ET.fromstring(report.to_junit()).find("testsuite/testcase[@name='execute']")
+    assert execute is not None and execute.find("failure") is None
+    assert execute.find("error").get("message") == "B: RuntimeError: motor driver offline"  # type: ignore[union-attr]
+    row = next(line for line in report.table().splitlines() if line.startswith("execute"))
+    assert row.split()[4:6] == ["error", "0.5"] and "fail" not in row.split()
+    assert "ERROR after 0.5 s" in report.table()
+    jsonschema.validate(report.to_dict(), REPORT_SCHEMA)
+    assert report.to_dict()["execute"][1]["status"] == "error"
+    assert "         0.5  error    B  RuntimeError: motor driver offline" in lines
+    assert lines[-1].split() == ["0.5", "end", "error"]
+    pytest.importorskip("matplotlib")  # the dev extra's: the run plot notes the error in red
+    from btgen_pytrees.run.plot import plot_bytes
+
+    texts = " ".join(t.text or "" for t in ET.fromstring(plot_bytes(report, loaded, "svg")).iter("{http://www.w3.org/2000/svg}text"))
+    assert "error: RuntimeError: motor driver offline" in texts and "failed:" not in texts
+
+
+def test_a_system_that_fails_outside_any_leaf_is_an_error_row_too() -> None:
+    """No entry raised (the system failed between ticks): the execute row still says error, with the run's message."""
+    import btgen_pytrees
+    from test_systems import Counter, registry
+
+    from btgen_pytrees.run import run_tree
+    from btgen_pytrees.systems import SystemSpec
+
+    reg = registry()
+    loaded = btgen_pytrees.load(case(entry("H", duration=1)), registry=reg, system=SystemSpec("counter"))
+    report = run_tree(btgen_pytrees.generate(loaded, registry=reg), loaded, system=Counter(loaded.tick, fail_at="tick", fail_tick=2))
+    assert report.verdict == "error"
+    row = next(line for line in report.table().splitlines() if line.startswith("execute"))
+    assert row.split()[4] == "error" and "the simulator ended early" in row
+    assert junit_counts(report.to_junit())[:2] == (0, 1)

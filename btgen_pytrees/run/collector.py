@@ -207,8 +207,9 @@ class Collector(py_trees.visitors.VisitorBase):
     def raised(self, exc: BaseException) -> EntryResult | None:
         """A tick of the tree raised *exc*: end the run with verdict ``error``.
 
-        The entry whose leaf raised (found on the traceback) is marked failed and
-        returned; the interrupted tick counts as a tick. A
+        The entry whose leaf raised (found on the traceback) gets status ``error``
+        (traced as an ``error`` event) and is returned; the interrupted tick counts
+        as a tick. A
         :class:`~btgen_pytrees.systems.SystemFailure` (a system action found the
         system broken) is reported by its message, any other exception with its type.
         """
@@ -224,7 +225,9 @@ class Collector(py_trees.visitors.VisitorBase):
         message = str(exc) if isinstance(exc, SystemFailure) else f"{type(exc).__name__}: {exc}"
         if culprit is not None:
             culprit.start = now if culprit.start is None else culprit.start
-            culprit.end, culprit.status, culprit.message = now, "failure", message
+            culprit.end, culprit.status, culprit.message = now, "error", message
+            if self.trace:
+                self.trace(trace_line(now, "error", culprit.id, message))
             message = f"{culprit.id}: {message}" if isinstance(exc, SystemFailure) else f"{culprit.id} raised {message}"
         self.end("error", message)
         return culprit

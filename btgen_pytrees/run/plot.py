@@ -128,7 +128,7 @@ def timeline_rows(report: Report, case: TestCase) -> list[Row]:
     for result in report.execute:
         entry = entries[result.id]
         end = result.end if result.end is not None or result.start is None else report.duration
-        failed = result.status == "failure"
+        failed = result.status in ("failure", "error")
         rows.append(Row(
             "execute", result.id, result.kind, printable(f"{result.id}  {entry.action}"), result.start, end, result.status,
             waits_for=entry.after if len(entry.after) > 1 else (), join=entry.join if len(entry.after) > 1 else "",
@@ -263,7 +263,7 @@ def _draw_rows(ax: Axes, rows: list[Row], span: float) -> None:
     from matplotlib.patches import Patch
 
     y = {row.id: i for i, row in enumerate(rows)}
-    ends = {row.id: row.end for row in rows if row.section == "execute" and row.status in ("success", "failure")}
+    ends = {row.id: row.end for row in rows if row.section == "execute" and row.status in ("success", "failure", "error")}
     dependencies: list[list[tuple[float, float]]] = []
     waits: list[list[tuple[float, float]]] = []
     for i, row in enumerate(rows):
@@ -317,15 +317,16 @@ def _draw_entry(ax: Axes, i: int, row: Row, span: float) -> None:
         ax.annotate("not started", (0.0, i), xytext=(2, -3), textcoords="offset points", fontsize=7, color="gray")
         return
     end = row.end if row.end is not None else row.start
-    colour = COLOURS["fail"] if row.status == "failure" else COLOURS.get(row.kind, COLOURS["behavior"])
+    colour = COLOURS["fail"] if row.status in ("failure", "error") else COLOURS.get(row.kind, COLOURS["behavior"])
     unfinished = row.status in ("running", "stopped")
     ax.barh(i, max(end - row.start, 0.0), left=row.start, height=0.6, color=colour, edgecolor="black",
             linewidth=0.5, hatch="///" if unfinished else None, alpha=0.6 if unfinished else 1.0, zorder=2)  # fmt: skip
     if end - row.start < span * 0.004:  # an instant: a bar too thin to see
         ax.plot([row.start], [i], marker="|", markersize=11, markeredgewidth=2.5, color=colour, zorder=3)
-    note = row.status if unfinished else (f"failed: {row.message}" if row.status == "failure" else "")
+    note = row.status if unfinished else (f"{'failed' if row.status == 'failure' else 'error'}: {row.message}"
+                                          if row.status in ("failure", "error") else "")  # fmt: skip
     if note:
-        _note(ax, note, end, i, span, COLOURS["fail"] if row.status == "failure" else "black")
+        _note(ax, note, end, i, span, COLOURS["fail"] if row.status in ("failure", "error") else "black")
 
 
 def _draw_criterion(ax: Axes, i: int, row: Row, span: float) -> None:

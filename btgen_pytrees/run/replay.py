@@ -476,7 +476,7 @@ _SCRIPT = r"""
   if (data.message) why.push(data.message);
   for (const line of data.explanation) if (!said(line)) why.push(line);
   for (const o of data.oracles) if (o.verdict === "fail" && o.message && !said(o.message)) why.push(o.id + ": " + o.message);
-  for (const e of data.execute) if (e.status === "failure" && e.message && !said(e.message)) why.push(e.id + ": " + e.message);
+  for (const e of data.execute) if ((e.status === "failure" || e.status === "error") && e.message && !said(e.message)) why.push(e.id + ": " + e.message);
   $("why").textContent = why.join("\n");
   const notes = [];
   if (data.collapsedBelow !== null) notes.push("opened with the subtrees below depth " + data.collapsedBelow + " collapsed (--max-depth; click a node with +N to expand it)");
@@ -672,10 +672,11 @@ _SCRIPT = r"""
     else if (ev.key === "-") tree.zoom(0.8);
   });
   const tickOf = (t) => { let best = 0; times.forEach((s, k) => { if (Math.abs(s - t) < Math.abs(times[best] - t)) best = k; }); return best; };
-  const failures = data.oracles.filter((o) => o.verdict === "fail" && o.at !== null).map((o) => [o.id, o.at])
-    .concat(data.execute.filter((e) => e.status === "failure" && e.end !== null).map((e) => [e.id, e.end]));
-  for (const [id, at] of failures) {
-    const b = el("button", id + " failed at " + fmt(at) + " s");
+  const failures = data.oracles.filter((o) => o.verdict === "fail" && o.at !== null).map((o) => [o.id, o.at, "failed"])
+    .concat(data.execute.filter((e) => (e.status === "failure" || e.status === "error") && e.end !== null)
+      .map((e) => [e.id, e.end, e.status === "error" ? "error" : "failed"]));  // an entry whose leaf raised: error
+  for (const [id, at, what] of failures) {
+    const b = el("button", id + " " + what + " at " + fmt(at) + " s");
     b.type = "button";
     b.addEventListener("click", () => show(tickOf(at)));
     $("jumps").appendChild(b);

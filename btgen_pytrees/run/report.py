@@ -31,8 +31,9 @@ _UNFINISHED = {
 class EntryResult:
     """What happened to one execute entry.
 
-    ``status`` is ``success``, ``failure``, ``running`` (still running when the
-    run timed out), ``stopped`` (interrupted when the run ended) or ``not-started``.
+    ``status`` is ``success``, ``failure``, ``error`` (its leaf raised: the run's
+    verdict is ``error``), ``running`` (still running when the run timed out),
+    ``stopped`` (interrupted when the run ended) or ``not-started``.
     """
 
     id: str
@@ -223,7 +224,12 @@ class Report:
                 message = f"{message} (not counted: its || group passed)" if message else "not counted: its || group passed"
             rows.append((o.label, o.type, o.expect, o.verdict, _time(o.at), message))
         failed = [e for e in self.execute if e.status == "failure"]
-        if failed:
+        if self.verdict == "error":  # a leaf raised, or the system failed: not a verdict on the timeline
+            erred = next((e for e in self.execute if e.status == "error"), None)
+            execute = ("execute", "", "every entry succeeds", "error", _time(self.duration), self.message)
+            if erred is not None:
+                execute = ("execute", "", "every entry succeeds", "error", _time(erred.end), f"{erred.label}: {erred.message}")
+        elif failed:
             execute = ("execute", "", "every entry succeeds", "fail", _time(failed[0].end), f"{failed[0].label}: {failed[0].message}")
         elif self.incomplete:
             execute = ("execute", "", "every entry succeeds", "incomplete", "", self.incomplete)
@@ -276,9 +282,13 @@ class Report:
                 ET.SubElement(el, "system-out").text = out
 
         failed = next((e for e in self.execute if e.status == "failure"), None)
-        if failed is not None:
+        erred = next((e for e in self.execute if e.status == "error"), None)
+        if self.verdict == "error":  # an error is an <error>, which CI servers count apart from failures
+            case("execute", "error", f"{erred.label}: {erred.message}" if erred else self.message or "error",
+                 erred.end if erred else self.duration)  # fmt: skip
+        elif failed is not None:
             case("execute", "failure", f"{failed.label}: {failed.message}", failed.end)
-        elif self.verdict in ("timeout", "error", "running"):
+        elif self.verdict in ("timeout", "running"):
             case("execute", "error", self.message or self.verdict, self.duration)
         elif self.verdict == "fail" and not any(o.verdict == "fail" and self.decisive(o) for o in self.oracles):
             case("execute", "failure", self.message or "failed", self.duration)  # e.g. --require-complete

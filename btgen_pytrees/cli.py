@@ -29,6 +29,7 @@ from .output import OutputError, check_target, commit, is_direct, same_file
 from .render import FORMATS, JSON_INDENT_LIMIT, GraphvizMissing, render_chunks
 from .render.dot import png_depth
 from .systems import SystemSpec
+from .falsify.command import add_arguments as falsify_arguments, cmd_falsify
 from .sweep.case import has_variations
 from .sweep.command import Refused
 from .sweep.overrides import ParameterError, choose, given_values, parse_set, read_params
@@ -41,7 +42,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["main", "MAX_JOBS"]
 
 EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
-COMMANDS = ("show", "validate", "run", "expand", "schema")
+COMMANDS = ("show", "validate", "run", "expand", "falsify", "schema")
 
 MAX_JOBS = 64
 """Most worker processes ``--jobs`` may ask for (more is a usage error)."""
@@ -595,7 +596,7 @@ def _parser() -> argparse.ArgumentParser:
         epilog="'show' is the default command: 'python -m btgen_pytrees test.json' prints the tree.",
     )
     parser.add_argument("--version", action="version", version=f"btgen_pytrees {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,expand,schema}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,expand,falsify,schema}", parser_class=_Parser)
     many = argparse.ArgumentParser(add_help=False)
     many.add_argument("--jobs", "-j", type=int, default=min(os.cpu_count() or 1, MAX_JOBS), metavar="N",
                       help=f"with several files or a sweep: worker processes, 1 to {MAX_JOBS} (default: the number of CPUs)")  # fmt: skip
@@ -653,6 +654,10 @@ def _parser() -> argparse.ArgumentParser:
     expand.add_argument("--out-dir", required=True, metavar="DIR", help="write name[gap=5,...].json files into DIR")
     expand.add_argument("--max-variations", type=int, metavar="N", help="refuse more than N variations (default 10000)")
     expand.set_defaults(func=cmd_expand)
+
+    falsify = sub.add_parser("falsify", parents=[plugin, many], help="search a sweep's parameter box for a failing setting (docs/falsify.md)")
+    falsify_arguments(falsify)
+    falsify.set_defaults(func=cmd_falsify)
 
     schema = sub.add_parser("schema", parents=[plugin],
                             help="print the test case JSON Schema, with the params of every registered action")

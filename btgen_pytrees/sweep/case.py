@@ -78,7 +78,9 @@ class Sweep:
         self.name: str = data["name"] if isinstance(data.get("name"), str) else ""
         self.defaults: dict[str, Value] = dict(data.get("parameters", {}))
         self.variations = Variations.parse(data.get("variations"))
-        self.template = {k: v for k, v in data.items() if k != "variations"}
+        self.template = {k: v for k, v in data.items() if k not in ("variations", "search")}
+        self.search: Mapping[str, Any] | None = data.get("search")
+        """The ``search`` block (``falsify``'s settings), kept out of every variation's document."""
         # a case without parameters keeps every '$' as written, as it always has
         self.sites, self.problems = find_sites(self.template, self.defaults) if is_parameterised(data) else ([], [])
 

@@ -29,7 +29,7 @@ def _validator() -> SchemaValidator:
     from ..loader import inline_refs, schema
 
     root = schema()
-    blocks = {"type": "object", "properties": {k: root["properties"][k] for k in ("parameters", "variations")}}
+    blocks = {"type": "object", "properties": {k: root["properties"][k] for k in ("parameters", "variations", "search")}}
     return SchemaValidator(inline_refs(blocks, root))
 
 
@@ -38,8 +38,8 @@ def _short(text: str) -> str:
 
 
 def shape_problems(doc: Mapping[str, Any]) -> list[Problem]:
-    """Schema problems of the two blocks (the rest of the document is checked after substitution)."""
-    blocks = {k: doc[k] for k in ("parameters", "variations") if k in doc}
+    """Schema problems of the three blocks (``search`` is falsify's; the rest of the document is checked after substitution)."""
+    blocks = {k: doc[k] for k in ("parameters", "variations", "search") if k in doc}
     problems = []
     for error in _validator().iter_errors(blocks):
         path: tuple[PathPart, ...] = tuple(error.absolute_path)

@@ -200,8 +200,12 @@ def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequen
 
 
 def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOptions, system: SystemSpec | None,
-                   workers: int, executor: Any = None, progress: Any = None) -> list[batch.Outcome]:  # fmt: skip
+                   workers: int, executor: Any = None, progress: Any = None,
+                   job: Callable[..., ChunkOutcome] = job_chunk) -> list[batch.Outcome]:  # fmt: skip
     """Run *variations*; one outcome per variation, in order.
+
+    *job* runs a chunk (default :func:`~.jobs.job_chunk`; ``falsify`` passes its own, which
+    also times each run).
 
     Every variation's job gets *options* and its system (*system*, ``--system``, or its own
     with the configuration resolved here). On a cluster the files the runs read are sent to
@@ -222,7 +226,7 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     job_args = [(options, sweep.source, [(v.label, v.document, s) for v, s in zip(c, systems[k:k + size])])
                 for k, c in zip(starts, chunks)]  # fmt: skip
     try:
-        done = batch.process(job_chunk, job_args, names, workers=workers, progress=progress, executor=executor)
+        done = batch.process(job, job_args, names, workers=workers, progress=progress, executor=executor)
     except batch.Interrupted as stop:
         stop.finished = sum(len(c) for c, o in zip(chunks, stop.outcomes) if o.code != batch.NOT_RUN)  # type: ignore[attr-defined]
         raise

@@ -1,0 +1,306 @@
+"""``ask(n)`` / ``tell(values)``: the search's sampler, over Optuna's samplers and the ``cmaes`` library.
+
+Every method starts with a *space-filling* stage: a scrambled Sobol sequence
+(Optuna's ``QMCSampler``) over the unit box (:mod:`.space`), so the first
+runs cover the box evenly and give the objective's scale. Then:
+
+* ``cmaes`` - CMA-ES (the ``cmaes`` library, which Optuna's ``CmaEsSampler``
+  wraps; used directly because Optuna 5 deprecates that sampler's ``x0``,
+  ``sigma0`` and restarts) started at the best start point with step size 0.2
+  of the box, its population a multiple of the batch. It *restarts* from the
+  next best start point not near an earlier start or a known failure when
+  the library says it has converged or it has not improved for a while, and
+  when the search asks for a new region (:meth:`Sampler.restart`). List
+  parameters are drawn uniformly.
+* ``tpe`` - Optuna's ``TPESampler`` (multivariate, constant liar for batches),
+  given every run so far; for mixed and categorical spaces.
+* ``sobol`` - the Sobol sequence on (space-filling only); ``random`` - uniform
+  random (Optuna's ``RandomSampler``; no start stage: it is the baseline).
+* ``auto`` - ``cmaes`` when there are at least two continuous parameters and
+  no list, ``tpe`` otherwise.
+
+Points are asked in batches and told in the order they were asked, so a seed
+gives the same search whatever the number of workers. Optuna's and NumPy's
+generators are seeded from the seed; nothing global is changed (Optuna's log
+level is raised only around its calls, and put back).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import warnings
+from typing import Any, Callable, Iterator, Sequence
+
+from .space import Space
+
+__all__ = ["Sampler", "METHODS", "SearchUnavailable", "HINT", "available", "resolve_method"]
+
+METHODS = ("auto", "cmaes", "tpe", "sobol", "random")
+HINT = "falsify needs the 'search' extra (optuna, cmaes, scipy): pip install -e '.[search]'"
+
+SIGMA0 = 0.2
+"""CMA-ES's first step size, as a fraction of the unit box."""
+RESTART_SIGMA = 0.3
+"""The step size of a restart (a new region: wider)."""
+
+
+class SearchUnavailable(RuntimeError):
+    """The optional optimiser libraries are missing; ``str()`` says which extra to install."""
+
+
+def available() -> bool:
+    """Whether the ``search`` extra's libraries import."""
+    try:
+        import cmaes  # noqa: F401
+        import optuna  # noqa: F401
+        import scipy.stats.qmc  # noqa: F401 - Optuna's QMCSampler needs it
+    except ImportError:
+        return False
+    return True
+
+
+def resolve_method(method: str, space: Space) -> str:
+    """``auto`` -> ``cmaes`` or ``tpe``; ``cmaes`` on fewer than two continuous parameters -> ``tpe``."""
+    if method == "auto":
+        return "cmaes" if len(space.continuous) >= 2 and not space.categorical else "tpe"
+    if method == "cmaes" and len(space.continuous) < 2:
+        return "tpe"  # the library's CMA-ES needs two dimensions at least
+    return method
+
+
+@contextlib.contextmanager
+def _quiet(optuna: Any) -> Iterator[None]:
+    """Optuna's INFO lines ("A new study created") and experimental warnings off, for our calls only."""
+    level = optuna.logging.get_verbosity()
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        optuna.logging.set_verbosity(level)
+
+
+class Sampler:
+    """Proposes unit points in batches; learns from their objectives (lower is closer to failing).
+
+    Args:
+        space: the searched box
+        method: one of :data:`METHODS` (``auto`` is resolved here)
+        seed: the seed of every generator
+        start: how many space-filling points first (rounded up to a whole number of batches by the caller)
+        batch: points per ask (CMA-ES's population is a multiple of it)
+    """
+
+    def __init__(self, space: Space, method: str, *, seed: int, start: int, batch: int):
+        if not available():
+            raise SearchUnavailable(HINT)
+        import numpy
+        import optuna
+
+        self._optuna, self._np = optuna, numpy
+        self.space = space
+        self.method = resolve_method(method, space)
+        self.seed = seed
+        self.start = 0 if self.method == "random" else start
+        self.batch = batch
+        self.xs: list[list[float]] = []
+        self.ys: list[float | None] = []
+        self._asked: list[tuple[str, Any, list[float]]] = []
+        self._names = [d.name for d in space.dimensions]
+        dists = optuna.distributions
+        self._dists = {d.name: (dists.FloatDistribution(0.0, 1.0) if d.continuous else
+                                dists.CategoricalDistribution(list(range(len(d.choices))))) for d in space.dimensions}  # fmt: skip
+        with _quiet(optuna):
+            first = (optuna.samplers.RandomSampler(seed=seed) if self.method == "random" else
+                     optuna.samplers.QMCSampler(qmc_type="sobol", scramble=True, seed=seed, warn_independent_sampling=False,
+                                                warn_asynchronous_seeding=False))  # fmt: skip
+            self._study = optuna.create_study(sampler=first)
+        self._stage = "start" if self.start else self.method
+        self._rng = numpy.random.default_rng(seed)
+        self._cma: Any = None
+        self._generation: list[tuple[Any, float | None]] = []
+        self._starts: list[list[float]] = []
+        self._stale = 0
+        self._best = math.inf
+        self.restarts = 0
+        self.avoid: Callable[[Sequence[float]], bool] = lambda _x: False
+        """Points the searcher should not start from (e.g. inside a known failure cluster)."""
+
+    # -- the interface ------------------------------------------------------------------------------
+
+    @property
+    def stage(self) -> str:
+        """``start`` (space-filling), then the method's own stage (``sobol`` when it fell back)."""
+        return self._stage
+
+    def ask(self, n: int) -> list[list[float]]:
+        """*n* new unit points (a choice index for each list parameter)."""
+        if self._stage == "start" and len(self.xs) + len(self._asked) >= self.start:
+            self._switch(self.method)
+        points = []
+        with _quiet(self._optuna):
+            for _ in range(n):
+                if self._stage == "cmaes" and self.batch > 1 and not self._asked:  # one model point per batch
+                    x = self._model_point()
+                    if x is None:
+                        trial = self._study.ask(self._dists)  # too few runs for a model: the Sobol sequence
+                        self._asked.append(("trial", trial, [float(trial.params[k]) for k in self._names]))
+                    else:
+                        self._asked.append(("model", x, self._with_choices(x)))
+                elif self._stage == "cmaes":
+                    x = self._cma.ask()
+                    self._asked.append(("cma", x, self._with_choices(x)))
+                else:
+                    trial = self._study.ask(self._dists)
+                    self._asked.append(("trial", trial, [float(trial.params[k]) for k in self._names]))
+                points.append(self._asked[-1][2])
+        return [list(p) for p in points]
+
+    def tell(self, values: Sequence[float | None]) -> None:
+        """The objectives of the points asked (``None``: the run erred), in the order asked."""
+        if len(values) != len(self._asked):
+            raise ValueError(f"told {len(values)} values for {len(self._asked)} points asked")
+        state = self._optuna.trial.TrialState
+        with _quiet(self._optuna):
+            for (kind, handle, point), value in zip(self._asked, values):
+                self.xs.append(point)
+                self.ys.append(value)
+                if kind == "trial":
+                    if value is None:
+                        self._study.tell(handle, state=state.FAIL)
+                    else:
+                        self._study.tell(handle, value)
+                elif kind == "cma":
+                    self._generation.append((handle, value))
+        self._asked = []
+        if self._stage == "cmaes" and len(self._generation) >= self._cma.population_size:
+            self._cma_tell()
+
+    def rescore(self, values: Sequence[float | None]) -> None:
+        """Replace the objectives told so far (e.g. once the criteria's scales are known); the next
+        stage learns from these."""
+        self.ys = list(values)
+
+    def restart(self, values: Sequence[float | None] | None = None) -> None:
+        """Look elsewhere: CMA-ES restarts from a new point, TPE relearns from *values* (one per run so far)."""
+        if values is not None:
+            self.ys = list(values)
+        if self._stage == "cmaes":
+            self._new_cma(RESTART_SIGMA)
+        elif self._stage == "tpe":
+            self._switch("tpe")
+
+    def space_filling(self) -> None:
+        """Go on with the Sobol sequence only (the objective gives no direction to follow)."""
+        if self._stage == "start":
+            self.start = math.inf  # type: ignore[assignment]
+        else:
+            self._stage = "sobol"
+
+    # -- stages -------------------------------------------------------------------------------------
+
+    def _switch(self, stage: str) -> None:
+        optuna = self._optuna
+        self._stage = stage
+        if stage == "tpe":
+            with _quiet(optuna):
+                sampler = optuna.samplers.TPESampler(seed=self.seed + 1 + self.restarts, n_startup_trials=0, multivariate=True,
+                                                     constant_liar=True, warn_independent_sampling=False)  # fmt: skip
+                study = optuna.create_study(sampler=sampler)
+                study.add_trials([optuna.trial.create_trial(params=self._params(x), distributions=self._dists, value=y)
+                                  for x, y in zip(self.xs, self.ys) if y is not None])  # fmt: skip
+            self._study = study
+            self.restarts += 1
+        elif stage == "cmaes":
+            self._new_cma(SIGMA0)
+
+    def _params(self, x: Sequence[float]) -> dict[str, Any]:
+        return {k: (float(u) if d.continuous else int(u)) for k, d, u in zip(self._names, self.space.dimensions, x)}
+
+    def _continuous(self, x: Sequence[float]) -> list[float]:
+        return [u for d, u in zip(self.space.dimensions, x) if d.continuous]
+
+    def _with_choices(self, x: Any) -> list[float]:
+        out, it = [], iter(float(v) for v in x)
+        for d in self.space.dimensions:
+            out.append(next(it) if d.continuous else float(self._rng.integers(len(d.choices))))
+        return out
+
+    def _new_cma(self, sigma: float) -> None:
+        from cmaes import CMA
+
+        np = self._np
+        dims = len(self.space.continuous)
+        ranked = sorted((y, i) for i, y in enumerate(self.ys) if y is not None)
+        x0 = None
+        for _, i in ranked:
+            x = self.xs[i]
+            if self.avoid(x) or any(self.space.distance(x, s) < 0.1 for s in self._starts):
+                continue
+            x0 = x
+            break
+        if x0 is None:
+            x0 = [float(u) for u in self._rng.random(len(self.space.dimensions))]
+        self._starts.append(list(x0))
+        base = 4 + math.floor(3 * math.log(dims))
+        per = self.batch - 1 if self.batch > 1 else 1  # CMA-ES's points of a batch (the first is the model's)
+        size = per * max(1, math.ceil(base / per))
+        mean = np.clip(np.array(self._continuous(x0), dtype=float), 0.0, 1.0)
+        self._cma = CMA(mean=mean, sigma=sigma, bounds=np.array([[0.0, 1.0]] * dims), seed=self.seed + 7919 * len(self._starts),
+                        population_size=size)  # fmt: skip
+        self._generation = []
+        self._stale = 0
+        self._best = math.inf
+        if len(self._starts) > 1:
+            self.restarts += 1
+
+    def _model_point(self) -> Any:
+        """The minimum of a quadratic model of the objective fitted to the best runs so far (as in
+        lq-CMA-ES), or None when too few runs fit one; the first point of each CMA-ES batch."""
+        np = self._np
+        told = [(self._continuous(x), y) for x, y in zip(self.xs, self.ys) if y is not None and not self.avoid(x)]
+        d = len(self.space.continuous)
+        full = (d + 1) * (d + 2) // 2
+        diagonal = 2 * d + 1
+        if len(told) >= full + 2:
+            terms = full
+        elif len(told) >= diagonal + 2:
+            terms = diagonal
+        else:
+            return None
+        told.sort(key=lambda p: p[1])
+        best = told[: max(terms + 2, min(len(told), 3 * terms))]
+        X = np.array([x for x, _ in best])
+        Y = np.array([y for _, y in best])
+
+        def features(P: Any) -> Any:
+            cols = [np.ones(len(P))] + [P[:, i] for i in range(d)]
+            if terms == full:
+                cols += [P[:, i] * P[:, j] for i in range(d) for j in range(i, d)]
+            else:
+                cols += [P[:, i] ** 2 for i in range(d)]
+            return np.stack(cols, axis=1)
+
+        coef = np.linalg.lstsq(features(X), Y, rcond=None)[0]
+        around = np.clip(X[0] + self._rng.normal(0.0, 0.1, size=(2048, d)), 0.0, 1.0)
+        candidates = np.vstack([around, self._rng.random((2048, d))])
+        values = features(candidates) @ coef
+        point = candidates[int(np.argmin(values))]
+        return np.clip(point, 0.0, 1.0)
+
+    def _cma_tell(self) -> None:
+        told = [y for _, y in self._generation if y is not None]
+        worst = max(told) if told else 1.0
+        pairs = [(x, worst + 1.0 if y is None else y) for x, y in self._generation]
+        self._generation = []
+        self._cma.tell(pairs)
+        best = min(y for _, y in pairs)
+        if best < self._best - 1e-9 * max(1.0, abs(self._best)):
+            self._best, self._stale = best, 0
+        else:
+            self._stale += 1
+        patience = 10 + math.ceil(30 * len(self.space.continuous) / self._cma.population_size)
+        if self._cma.should_stop() or self._stale >= patience:
+            self._new_cma(RESTART_SIGMA)

@@ -1,0 +1,367 @@
+"""The search: ask a batch, run it, tell the objectives; after a failure, shrink it, bound it, look elsewhere.
+
+A run *fails* when its verdict is not ``pass`` (``fail``, ``timeout`` or
+``error``, as a sweep counts them). The loop (docs/falsify.md):
+
+1. **start** - space-filling points (:mod:`.sampler`); then each criterion's
+   scale is fixed (``search.scale``, else the standard deviation of its
+   margins over the start runs; 1 when they do not vary) and the criteria
+   whose margin varies over the start are *graded*: only they guide the
+   search (a collision count or a boolean is 0 or +-1 wherever the run
+   passes, and would only mislead it). With no graded criterion the search
+   stays space-filling.
+2. **search** - the method's sampler, batch by batch, until a run fails.
+3. **shrink** - along the segment from the nominal point (the sweep's
+   ``parameters``) to the failure, bisected until the pass/fail pair is within
+   the resolution of every parameter: the failing end is the counterexample
+   closest to the nominal point.
+4. **bound** - from the shrunk counterexample along each continuous parameter
+   towards a passing value (the nominal one, else a box edge), bisected to its
+   resolution: boundary points.
+5. **clusters** - the search goes on elsewhere (runs within :data:`RADIUS` of a
+   known failure are told a positive objective, and the sampler restarts); a
+   failure farther than :data:`RADIUS` from every known one is a new cluster,
+   shrunk and bounded in turn - until the budget ends, or after the first
+   cluster with ``stop: first``.
+
+Each bisection round runs a batch: ``batch`` points spread inside the interval
+(each parameter's interval, in the bound), so a round narrows it by ``batch + 1``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Generator, Mapping, Sequence
+
+from ..sweep.variations import Value
+from .margins import combine
+from .sampler import Sampler
+from .space import Space
+
+__all__ = ["Settings", "Run", "Cluster", "Boundary", "Search", "RADIUS", "FAILING"]
+
+RADIUS = 0.1
+"""Failures closer than this (a fraction of the unit box's diagonal) belong to one cluster."""
+
+FAILING = ("fail", "timeout", "error")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the ``search`` block and the options set (options win)."""
+
+    budget: int = 200
+    method: str = "auto"
+    seed: int = 0
+    batch: int = 8
+    stop: str = "all"
+    start: int | None = None
+    scale: Mapping[str, float] = field(default_factory=dict)
+
+    def start_runs(self, space: Space) -> int:
+        """Space-filling runs first: ``start``, else 4 per parameter within a quarter of the budget;
+        a whole number of batches."""
+        n = self.start if self.start is not None else max(self.batch, min(4 * len(space.dimensions), self.budget // 4))
+        return self.batch * max(1, math.ceil(n / self.batch))
+
+
+@dataclass
+class Run:
+    """One run of the search (``row`` is what its worker returned: verdict, margins, ...)."""
+
+    index: int
+    phase: str
+    unit: list[float]
+    parameters: dict[str, Value]
+    row: dict[str, Any]
+    objective: float | None = None
+
+    @property
+    def verdict(self) -> str:
+        return str(self.row.get("verdict", "error"))
+
+    @property
+    def failed(self) -> bool:
+        return self.verdict in FAILING
+
+
+@dataclass
+class Boundary:
+    """A pass/fail pair along one parameter (``parameter`` None: along the shrink's segment)."""
+
+    parameter: str | None
+    passing: int
+    failing: int
+
+
+@dataclass
+class Cluster:
+    """Failures near one another: their runs, the shrunk counterexample and the boundary found."""
+
+    members: list[int]
+    shrunk: int
+    boundary: list[Boundary] = field(default_factory=list)
+    refined: bool = False
+
+
+Evaluate = Callable[[list[dict[str, Value]]], list[dict[str, Any]]]
+"""Runs the given parameter values (in order) and returns each run's row."""
+
+
+class Search:
+    """One falsification search over *space*; :meth:`run` drives it to the end of the budget.
+
+    Args:
+        space: the box
+        nominal: the sweep's ``parameters`` (defaults)
+        settings: budget, method, seed, batch, stop rule, scales
+        evaluate: runs a batch (the sweep's executors); raises to stop (Ctrl-C)
+        progress: called after each batch with the search (a progress line)
+    """
+
+    def __init__(self, space: Space, nominal: Mapping[str, Value], settings: Settings, evaluate: Evaluate,
+                 progress: Callable[["Search"], None] | None = None):  # fmt: skip
+        self.space = space
+        self.settings = settings
+        self.evaluate = evaluate
+        self.progress = progress
+        self.nominal_values = {d.name: nominal[d.name] for d in space.dimensions if d.name in nominal}
+        self.nominal = space.unit(self.nominal_values)
+        self.start = min(settings.start_runs(space), settings.budget)
+        self.sampler = Sampler(space, settings.method, seed=settings.seed, start=self.start, batch=settings.batch)
+        self.method = self.sampler.method
+        self.runs: list[Run] = []
+        self.clusters: list[Cluster] = []
+        self.scales: dict[str, float] = {}
+        self.graded: list[str] | None = None
+        self.groups: dict[str, tuple[str, list[str]]] = {}
+        self.notes: list[str] = []
+        self.interrupted = False
+        self.first_failure: int | None = None
+
+    # -- the loop -----------------------------------------------------------------------------------
+
+    def run(self) -> "Search":
+        """Search until the budget ends (or the stop rule says so); Ctrl-C keeps what was found."""
+        try:
+            self._loop()
+        except KeyboardInterrupt:
+            self.interrupted = True
+        return self
+
+    @property
+    def left(self) -> int:
+        return self.settings.budget - len(self.runs)
+
+    def _loop(self) -> None:
+        while self.left > 0:
+            pending = next((c for c in self.clusters if not c.refined), None)
+            if pending is not None:
+                self._refine(pending)
+                if self.settings.stop == "first":
+                    return
+                self._restart()
+                continue
+            n = min(self.settings.batch, self.left)
+            points = self.sampler.ask(n)
+            runs = self._run_points(points, "start" if self.sampler.stage == "start" else "search")
+            self.sampler.tell([self._told(r) for r in runs])
+            if self.graded is None and len(self.sampler.xs) >= self.start:
+                self._fix_scales()
+            for r in runs:
+                if r.failed:
+                    self._place(r)
+
+    def _run_points(self, points: Sequence[Sequence[float]], phase: str) -> list[Run]:
+        units = [self.space.snap(p) for p in points]
+        values = [self.space.values(u) for u in units]
+        rows = self.evaluate(values)
+        out = []
+        for u, v, row in zip(units, values, rows):
+            if row.get("groups") and not self.groups:
+                self.groups = {g: (rel, list(ids)) for g, (rel, ids) in row["groups"].items()}
+            r = Run(len(self.runs), phase, u, v, row)
+            r.objective = self._objective(r)
+            self.runs.append(r)
+            if r.failed and self.first_failure is None:
+                self.first_failure = len(self.runs)
+            out.append(r)
+        if self.progress is not None:
+            self.progress(self)
+        return out
+
+    # -- the objective ------------------------------------------------------------------------------
+
+    def _objective(self, run: Run) -> float | None:
+        """The scaled, combined margin; at most 0 for a failing run; None for an error without margins."""
+        margins: Mapping[str, float | None] = run.row.get("margins") or {}
+        graded = self.graded
+        value = combine(margins, self.groups, self.scales,
+                        lambda i: graded is None or i in graded or (margins.get(i) is not None and margins[i] < 0))  # type: ignore[operator]  # fmt: skip
+        if run.failed:
+            return 0.0 if value is None or value > 0 else value
+        return value
+
+    def _fix_scales(self) -> None:
+        ids = [i for _, ids in self.groups.values() for i in ids]
+        graded = []
+        for i in ids:
+            seen = [r.row["margins"][i] for r in self.runs if (r.row.get("margins") or {}).get(i) is not None]
+            passing = {round(r.row["margins"][i], 12) for r in self.runs
+                       if not r.failed and (r.row.get("margins") or {}).get(i) is not None}  # fmt: skip
+            given = self.settings.scale.get(i)
+            if len(seen) > 1:
+                mean = sum(seen) / len(seen)
+                spread = math.sqrt(sum((m - mean) ** 2 for m in seen) / len(seen))
+            else:
+                spread = 0.0
+            if len(passing) > 1:  # a count or a boolean is the same wherever the run passes
+                graded.append(i)
+            self.scales[i] = float(given) if given is not None else (spread if spread > 1e-12 else 1.0)
+        self.graded = graded
+        for r in self.runs:
+            r.objective = self._objective(r)
+        flat = [i for i in ids if i not in graded]
+        if flat:
+            self.notes.append(f"no gradient over the start ({', '.join(flat)}): "
+                              + ("these guide nothing but still fail runs" if graded else "the search stays space-filling"))  # fmt: skip
+        if not graded:
+            self.sampler.space_filling()
+        self.sampler.rescore([self._told(r) for r in self.runs])
+
+    def _told(self, run: Run) -> float | None:
+        """What the sampler is told: the objective, pushed up near known failures (so it looks elsewhere)."""
+        if run.objective is None:
+            return None
+        near = self._nearest(run.unit)
+        if near < RADIUS:
+            return max(run.objective, 0.0) + (1.0 - near / RADIUS)
+        return run.objective
+
+    def _nearest(self, unit: Sequence[float]) -> float:
+        best = math.inf
+        for c in self.clusters:
+            for i in c.members:
+                best = min(best, self.space.distance(unit, self.runs[i].unit))
+        return best
+
+    def _restart(self) -> None:
+        self.sampler.avoid = lambda x: self._nearest(x) < RADIUS
+        self.sampler.restart([self._told(r) for r in self.runs if r.phase in ("start", "search")])
+
+    # -- clusters, shrink, bound ----------------------------------------------------------------------
+
+    def _place(self, run: Run) -> Cluster:
+        """Put a failing run into the cluster with a member within :data:`RADIUS` (merging the clusters
+        it joins), or into a new one."""
+        near = [c for c in self.clusters
+                if any(self.space.distance(run.unit, self.runs[i].unit) < RADIUS for i in c.members)]  # fmt: skip
+        if not near:
+            cluster = Cluster([run.index], run.index)
+            self.clusters.append(cluster)
+            return cluster
+        into = near[0]
+        into.members.append(run.index)
+        for other in near[1:]:
+            into.members += other.members
+            into.boundary += other.boundary
+            into.refined = into.refined or other.refined
+            if self._closer(other.shrunk, into.shrunk):
+                into.shrunk = other.shrunk
+            self.clusters.remove(other)
+        if not into.refined and self._closer(run.index, into.shrunk):
+            into.shrunk = run.index
+        into.members.sort()
+        return into
+
+    def _closer(self, a: int, b: int) -> bool:
+        return self.space.distance(self.runs[a].unit, self.nominal) < self.space.distance(self.runs[b].unit, self.nominal)
+
+    def _refine(self, cluster: Cluster) -> None:
+        """Shrink, then bound, *cluster*'s counterexample; each round one batch, within the budget."""
+        for phase, steps in (("shrink", self._shrink(cluster)), ("bound", self._bound(cluster))):
+            try:
+                points = next(steps)
+                while True:
+                    if len(points) > self.left:
+                        self.notes.append(f"the budget ended during the {phase} of cluster {self.clusters.index(cluster) + 1}")
+                        cluster.refined = True
+                        return
+                    runs = self._run_points(points, phase)
+                    for r in runs:
+                        if r.failed:
+                            cluster.members.append(r.index)
+                    points = steps.send(runs)
+            except StopIteration:
+                pass
+        cluster.refined = True
+
+    def _resolved(self, a: Sequence[float], b: Sequence[float]) -> bool:
+        return all(abs(x - y) <= d.unit_resolution(x) + 1e-12 for d, x, y in zip(self.space.dimensions, a, b) if d.continuous)
+
+    def _shrink(self, cluster: Cluster) -> Generator[list[list[float]], list[Run], None]:
+        fail = self.runs[cluster.shrunk]
+        origin = [n if n is not None else f for n, f in zip(self.nominal, fail.unit)]
+        for d, i in zip(self.space.dimensions, range(len(origin))):
+            if not d.continuous:
+                origin[i] = fail.unit[i]  # lists keep the failure's choice: the segment is continuous
+
+        def at(t: float) -> list[float]:
+            return [o + t * (f - o) if d.continuous else f for d, o, f in zip(self.space.dimensions, origin, fail.unit)]
+
+        lo, hi, hi_run = 0.0, 1.0, fail
+        first = True
+        pass_run: Run | None = None
+        k = self.settings.batch
+        while not self._resolved(at(lo), at(hi)):
+            ts = ([0.0] if first else []) + [lo + (hi - lo) * j / (k + 1) for j in range(1, k + 1 - (1 if first else 0))]
+            runs = yield [at(t) for t in ts]
+            first = False
+            new_lo, new_hi = lo, hi
+            for t, r in zip(ts, runs):
+                if r.failed:
+                    new_hi, hi_run = t, r
+                    break
+                new_lo, pass_run = t, r
+            lo, hi = new_lo, new_hi
+            if hi == 0.0:
+                break
+        cluster.shrunk = hi_run.index
+        if pass_run is not None:
+            cluster.boundary.append(Boundary(None, pass_run.index, hi_run.index))
+
+    def _bound(self, cluster: Cluster) -> Generator[list[list[float]], list[Run], None]:
+        """From the cluster's deepest failure (smallest objective), both ways along each continuous
+        parameter: a passing box edge first, then k-section of [failing, passing] to the resolution."""
+        base = min((self.runs[i] for i in cluster.members),
+                   key=lambda r: (r.objective if r.objective is not None else 0.0, r.index))  # fmt: skip
+        sides = [(i, edge) for i, d in enumerate(self.space.dimensions) if d.continuous
+                 for edge in (0.0, 1.0) if abs(edge - base.unit[i]) > d.unit_resolution(base.unit[i])]  # fmt: skip
+
+        def point(i: int, u: float) -> list[float]:
+            p = list(base.unit)
+            p[i] = u
+            return p
+
+        runs = yield [point(i, edge) for i, edge in sides]
+        # side -> [failing u, passing u, failing run, passing run]; a side whose edge fails has no boundary
+        found = {side: [base.unit[side[0]], side[1], base, r] for side, r in zip(sides, runs) if not r.failed}
+        k = self.settings.batch
+        while True:
+            active = [s for s, (f, p, _, _) in found.items() if not self._resolved(point(s[0], f), point(s[0], p))]
+            if not active:
+                break
+            m = max(1, k // len(active))
+            asking = [(s, found[s][0] + (found[s][1] - found[s][0]) * j / (m + 1)) for s in active for j in range(1, m + 1)]
+            runs = yield [point(s[0], u) for s, u in asking]
+            for (s, u), r in zip(asking, runs):  # per side from the failing end towards the passing one
+                entry = found[s]
+                if entry[1] == u or (r.failed and abs(u - entry[0]) > abs(entry[1] - entry[0])):
+                    continue
+                if r.failed:
+                    entry[0], entry[2] = u, r
+                elif abs(u - entry[0]) < abs(entry[1] - entry[0]):
+                    entry[1], entry[3] = u, r
+        for (i, _), (f, p, fr, pr) in found.items():
+            cluster.boundary.append(Boundary(self.space.dimensions[i].name, pr.index, fr.index))

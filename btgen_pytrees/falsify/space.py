@@ -1,0 +1,176 @@
+"""The search space: a sweep's ``variations`` read as a box to search instead of points to run.
+
+* a range ``{"from": a, "to": b, "step": s}`` is the continuous interval [a, b];
+  its step is the *resolution* (how precisely a boundary is reported), not a grid;
+* a list is a categorical choice;
+* a random draw keeps its distribution as a prior: ``{"uniform": [a, b]}`` is
+  [a, b]; ``{"normal": [mu, sigma]}`` is mu +- 4 sigma, mapped so that equal
+  steps of the searched coordinate are equal steps of probability. Their
+  resolution is 1/100 of the interval (uniform) or sigma/10 (normal).
+
+The searchers work in the *unit box*: one coordinate in [0, 1] per continuous
+parameter (a value through its prior's quantile function) and a choice index
+per list. Values are rounded to 1/100 of the resolution, so a counterexample's
+value is short, exact in JSON, and runs again as written.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from statistics import NormalDist
+from typing import Any, Mapping, Sequence
+
+from ..sweep.variations import Value, Variations
+
+__all__ = ["Dimension", "Space", "EDGE"]
+
+EDGE = NormalDist().cdf(-4.0)
+"""A normal prior's searched interval is mu +- 4 sigma: the unit coordinate runs from EDGE to 1 - EDGE."""
+
+_NORMAL = NormalDist()
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """One searched parameter.
+
+    Attributes:
+        name: the parameter
+        kind: ``range``, ``uniform``, ``normal`` (continuous) or ``list`` (categorical)
+        low, high: the interval (continuous); for ``normal`` mu - 4 sigma and mu + 4 sigma
+        resolution: how finely a boundary is located along it (continuous)
+        choices: the values (``list``)
+        mu, sigma: a normal prior's parameters
+    """
+
+    name: str
+    kind: str
+    low: float = 0.0
+    high: float = 0.0
+    resolution: float = 0.0
+    choices: tuple[Value, ...] = ()
+    mu: float = 0.0
+    sigma: float = 0.0
+
+    @property
+    def continuous(self) -> bool:
+        return self.kind != "list"
+
+    @property
+    def digits(self) -> int:
+        """Decimal places values are rounded to: 1/100 of the resolution."""
+        return max(0, min(12, 2 - math.floor(math.log10(self.resolution)))) if self.resolution > 0 else 6
+
+    def value(self, u: float) -> Value:
+        """The parameter's value at unit coordinate *u* (a choice index for a list)."""
+        if not self.continuous:
+            return self.choices[min(len(self.choices) - 1, max(0, int(u)))]
+        u = min(1.0, max(0.0, float(u)))
+        if self.kind == "normal":
+            x = self.mu + self.sigma * _NORMAL.inv_cdf(EDGE + u * (1 - 2 * EDGE)) if self.sigma > 0 else self.mu
+        else:
+            x = self.low + u * (self.high - self.low)
+        x = round(x, self.digits) + 0.0
+        return int(x) if x.is_integer() and abs(x) < 1e15 and self.resolution >= 1 else x
+
+    def unit(self, value: Any) -> float | None:
+        """The unit coordinate of *value* (clipped into the box); ``None`` for a value not among a list's choices."""
+        if not self.continuous:
+            for i, choice in enumerate(self.choices):
+                if type(choice) is type(value) and choice == value or (not isinstance(value, bool) and not isinstance(choice, bool) and choice == value):
+                    return float(i)
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return None
+        if self.kind == "normal":
+            if self.sigma <= 0:
+                return 0.5
+            p = _NORMAL.cdf((float(value) - self.mu) / self.sigma)
+            return min(1.0, max(0.0, (p - EDGE) / (1 - 2 * EDGE)))
+        span = self.high - self.low
+        return min(1.0, max(0.0, (float(value) - self.low) / span)) if span > 0 else 0.5
+
+    def unit_resolution(self, u: float) -> float:
+        """The resolution as a step of the unit coordinate near *u*."""
+        if not self.continuous:
+            return 1.0
+        if self.kind == "normal":
+            x = self.value(u)
+            here = self.unit(float(x) + self.resolution)
+            return max(1e-9, abs((here if here is not None else u) - u))
+        span = self.high - self.low
+        return self.resolution / span if span > 0 else 1.0
+
+    def grid_size(self) -> int:
+        """Values of the grid at the declared resolution (a list: its choices)."""
+        if not self.continuous:
+            return len(self.choices)
+        return int(math.floor((self.high - self.low) / self.resolution + 1e-9)) + 1 if self.resolution > 0 else 1
+
+
+@dataclass(frozen=True)
+class Space:
+    """The searched parameters, in the ``variations`` block's order."""
+
+    dimensions: tuple[Dimension, ...]
+
+    @classmethod
+    def of(cls, variations: Variations) -> "Space":
+        dims = []
+        for axis in variations.axes:
+            spec = axis.spec
+            if axis.kind == "list":
+                dims.append(Dimension(axis.name, "list", choices=tuple(spec)))
+            elif axis.kind == "range":
+                dims.append(Dimension(axis.name, "range", float(spec["from"]), float(spec["to"]), float(spec["step"])))
+            elif axis.kind == "uniform":
+                a, b = (float(x) for x in spec["uniform"])
+                dims.append(Dimension(axis.name, "uniform", a, b, (b - a) / 100))
+            else:
+                mu, sigma = (float(x) for x in spec["normal"])
+                dims.append(Dimension(axis.name, "normal", mu - 4 * sigma, mu + 4 * sigma, sigma / 10, mu=mu, sigma=sigma))
+        return cls(tuple(dims))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(d.name for d in self.dimensions)
+
+    @property
+    def continuous(self) -> tuple[Dimension, ...]:
+        return tuple(d for d in self.dimensions if d.continuous)
+
+    @property
+    def categorical(self) -> tuple[Dimension, ...]:
+        return tuple(d for d in self.dimensions if not d.continuous)
+
+    def values(self, unit: Sequence[float]) -> dict[str, Value]:
+        """The parameters' values at a unit point."""
+        return {d.name: d.value(u) for d, u in zip(self.dimensions, unit)}
+
+    def unit(self, values: Mapping[str, Any]) -> list[float | None]:
+        """The unit point of *values* (``None`` where a value is not in the box's choices)."""
+        return [d.unit(values.get(d.name)) for d in self.dimensions]
+
+    def snap(self, unit: Sequence[float]) -> list[float]:
+        """*unit* moved to the point whose values it runs (values are rounded; the search sees what ran)."""
+        out = []
+        for d, u in zip(self.dimensions, unit):
+            back = d.unit(d.value(u))
+            out.append(float(back) if back is not None else float(u))
+        return out
+
+    def distance(self, a: Sequence[float | None], b: Sequence[float | None]) -> float:
+        """Distance in the unit box, as a fraction of its diagonal (a differing choice counts 1)."""
+        total = 0.0
+        for d, x, y in zip(self.dimensions, a, b):
+            if x is None or y is None:
+                total += 1.0
+            elif d.continuous:
+                total += (x - y) ** 2
+            else:
+                total += 0.0 if x == y else 1.0
+        return math.sqrt(total / max(1, len(self.dimensions)))
+
+    def grid_size(self) -> int:
+        return math.prod(d.grid_size() for d in self.dimensions)

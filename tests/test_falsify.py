@@ -1,0 +1,299 @@
+"""``falsify``: the search over a sweep's box (docs/falsify.md).
+
+Real runs throughout: the built-in simulator, real SUMO (libsumo) for the
+counterexample that must run from another directory, real worker processes
+and a real Dask ``LocalCluster``. The tests skip only outside CI when an
+optional component (the ``search`` extra, SUMO, distributed) is absent.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import logging
+import os
+import pathlib
+import subprocess
+import sys
+from typing import Any
+
+import pytest
+
+import btgen_pytrees
+from btgen_pytrees.cli import main
+from btgen_pytrees.falsify.margins import combine, criterion_margins, groups_of
+from btgen_pytrees.falsify.sampler import available
+from btgen_pytrees.run import run
+
+pytestmark = pytest.mark.skipif(not available() and not os.environ.get("CI"),
+                                reason="the 'search' extra is not installed (pip install -e '.[search]'; CI installs it)")  # fmt: skip
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+ISLAND = ROOT / "benchmarks" / "falsify_cases" / "island_2d.json"
+FIG1_SWEEP = ROOT / "examples" / "fig1_sweep.json"
+CUT_IN = ROOT / "examples" / "sumo" / "cut_in_sweep.json"
+
+
+def island(**changes: Any) -> dict[str, Any]:
+    data = json.loads(ISLAND.read_text())
+    data.update(changes)
+    return data
+
+
+def write(tmp_path: pathlib.Path, data: dict[str, Any], name: str = "sweep.json") -> str:
+    path = tmp_path / name
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+def cli(*args: str, cwd: pathlib.Path = ROOT, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "btgen_pytrees", *args], capture_output=True, text=True, timeout=300,
+                          cwd=cwd, env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})})  # fmt: skip
+
+
+def without_wall(text: str) -> dict[str, Any]:
+    data = json.loads(text)
+    for r in data["runs"]:
+        assert r["wall"] >= 0
+        r["wall"] = 0
+    return data
+
+
+# -- exit codes and bad input -----------------------------------------------------------------------
+
+
+def test_a_failure_found_is_exit_1_and_the_table_says_where(tmp_path: pathlib.Path, capsys: Any) -> None:
+    code = main(["falsify", str(ISLAND), "--budget", "40", "--jobs", "1", "--json", str(tmp_path / "f.json")])
+    out = capsys.readouterr().out
+    assert code == 1
+    data = json.loads((tmp_path / "f.json").read_text())
+    assert data["verdict"] == "falsified" and data["first_failure"] is not None
+    first = data["runs"][data["first_failure"] - 1]
+    assert first["verdict"] == "fail" and all(r["verdict"] == "pass" for r in data["runs"][: data["first_failure"] - 1])
+    shrunk = data["counterexamples"][0]
+    assert shrunk["kind"] == "shrunk" and shrunk["margin"] < 0
+    assert "FALSIFIED" in out and "uniform random" in out and shrunk["label"] in out
+
+
+def test_no_failure_is_exit_0_and_says_what_was_covered(tmp_path: pathlib.Path, capsys: Any) -> None:
+    data = island()
+    data["oracle"]["criteria"][0]["expect"] = "x >= 0"
+    code = main(["falsify", write(tmp_path, data), "--budget", "24", "--jobs", "1", "--json", str(tmp_path / "f.json")])
+    out = capsys.readouterr().out
+    assert code == 0
+    report = json.loads((tmp_path / "f.json").read_text())
+    assert report["verdict"] == "not-falsified" and report["first_failure"] is None and report["counterexamples"] == []
+    assert report["runs_done"] == 24
+    assert "no failure found" in out and "grid cells" in out
+    assert report["baselines"]["uniform_random"]["missed_share_95"] == pytest.approx(3 / 24)
+
+
+@pytest.mark.parametrize("search, where", [
+    ({"method": "annealing"}, "/search/method"),
+    ({"budget": 0}, "/search/budget"),
+    ({"colour": 1}, "/search"),
+    ({"scale": {"R9": 1}}, "/search/scale/R9"),
+    ({"scale": {"F1": -1}}, "/search/scale/F1"),
+])  # fmt: skip
+def test_a_bad_search_block_is_exit_2_naming_the_file_and_path(tmp_path: pathlib.Path, capsys: Any,
+                                                                search: dict[str, Any], where: str) -> None:  # fmt: skip
+    path = write(tmp_path, island(search=search))
+    assert main(["falsify", path, "--jobs", "1", "--json", str(tmp_path / "f.json")]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: {where}" in err, err
+    assert not (tmp_path / "f.json").exists()
+    # validate checks the block too (run and expand ignore it)
+    assert main(["validate", path]) == 2
+
+
+def test_the_search_block_is_used_and_options_win(tmp_path: pathlib.Path) -> None:
+    path = write(tmp_path, island(search={"budget": 16, "method": "sobol", "seed": 3, "batch": 4}))
+    assert main(["falsify", path, "--jobs", "1", "--json", str(tmp_path / "a.json")]) in (0, 1)
+    a = json.loads((tmp_path / "a.json").read_text())
+    assert (a["budget"], a["method"], a["seed"], a["batch"], a["runs_done"]) == (16, "sobol", 3, 4, 16)
+    assert main(["falsify", path, "--jobs", "1", "--budget", "8", "--method", "random", "--json", str(tmp_path / "b.json")]) in (0, 1)
+    b = json.loads((tmp_path / "b.json").read_text())
+    assert (b["budget"], b["method"], b["runs_done"]) == (8, "random", 8)
+    # the block does not reach the runs: run takes the file as before
+    coarse = island(search={"budget": 16}, variations={"a": {"from": 0, "to": 10, "step": 1}, "b": [1, 2.5]})
+    assert main(["run", write(tmp_path, coarse, "coarse.json"), "--jobs", "1"]) == 1
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--budget", "0"], "--budget 0"),
+    (["--method", "nope"], "invalid choice"),
+])  # fmt: skip
+def test_bad_options_are_exit_2(tmp_path: pathlib.Path, capsys: Any, args: list[str], message: str) -> None:
+    assert main(["falsify", str(ISLAND), "--jobs", "1", *args]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_a_case_without_variations_is_exit_2(tmp_path: pathlib.Path, capsys: Any) -> None:
+    assert main(["falsify", str(ROOT / "examples" / "fig1.json")]) == 2
+    assert "/variations" in capsys.readouterr().err
+
+
+def test_without_the_extra_falsify_says_which_to_install(tmp_path: pathlib.Path) -> None:
+    block = "import sys; sys.modules['optuna'] = None; from btgen_pytrees.cli import main; raise SystemExit(main())"
+    done = subprocess.run([sys.executable, "-c", block, "falsify", str(ISLAND)], capture_output=True, text=True, timeout=120,
+                          cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)})  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert "pip install -e '.[search]'" in done.stderr and "Traceback" not in done.stderr
+
+
+# -- determinism ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["cmaes", "tpe", "sobol", "random"])
+def test_same_seed_same_search_byte_for_byte_whatever_the_workers(tmp_path: pathlib.Path, method: str) -> None:
+    outs = []
+    for jobs in ("1", "2", "2"):
+        target = tmp_path / f"{jobs}-{len(outs)}.json"
+        main(["falsify", str(ISLAND), "--method", method, "--budget", "40", "--seed", "5", "--jobs", jobs, "--json", str(target)])
+        outs.append(json.dumps(without_wall(target.read_text()), indent=2))
+    assert outs[0] == outs[1] == outs[2]
+    other = tmp_path / "other.json"
+    main(["falsify", str(ISLAND), "--method", method, "--budget", "40", "--seed", "6", "--jobs", "1", "--json", str(other)])
+    assert json.dumps(without_wall(other.read_text()), indent=2) != outs[0]
+
+
+# -- margins -----------------------------------------------------------------------------------------
+
+
+def test_margins_follow_the_quantitative_semantics() -> None:
+    data = json.loads(FIG1_SWEEP.read_text())
+    from btgen_pytrees.sweep import load_sweep
+
+    sweep = load_sweep(data, check_all=False)
+    case = btgen_pytrees.load(sweep.document({**sweep.defaults, "top_speed": 15, "limit": 20}))
+    report = run(case)
+    assert report.verdict == "pass"
+    margins = criterion_margins(report, case)
+    # R1 speed <= 20 on every tick: 20 - max speed; P1 speed >= 0 over [0, 3]: min speed; F1 target == 25: -|25 - 25|
+    assert margins == {"R1": 5.0, "P1": 0.0, "F1": 0.0}
+    case = btgen_pytrees.load(sweep.document({**sweep.defaults, "top_speed": 30, "limit": 20}))
+    failed = run(case)
+    m = criterion_margins(failed, case)
+    assert failed.verdict == "fail" and m["R1"] < 0  # judged up to its first violation
+    speed_then = failed.trace.value_at("speed", failed.ticks - 1)
+    assert m["R1"] == pytest.approx(20 - speed_then)
+
+
+def test_the_objective_is_the_reports_margins_combined_min_max(tmp_path: pathlib.Path) -> None:
+    """Every run's objective is its report's criterion margins, scaled, min within && and max within ||."""
+    data = island(oracle={"relation": {"others": "||"}, "criteria": [
+        {"id": "F1", "type": "final", "expect": "(x - 6) * (x - 6) / 4 + (y - 2.5) * (y - 2.5) >= 0.08"},
+        {"id": "F2", "type": "final", "expect": "x <= 9"}]})  # fmt: skip
+    path = write(tmp_path, data)
+    main(["falsify", path, "--budget", "24", "--jobs", "2", "--json", str(tmp_path / "f.json")])
+    report = json.loads((tmp_path / "f.json").read_text())
+    from btgen_pytrees.sweep import load_sweep
+
+    sweep = load_sweep(path, check_all=False, max_variations=10**9)
+    for r in report["runs"][::5]:
+        case = btgen_pytrees.load(sweep.document({**sweep.defaults, **r["parameters"]}))
+        again = run(case)
+        own = {o.id: getattr(o, "margin", None) for o in again.oracles}
+        expected = own if all(v is not None for v in own.values()) else criterion_margins(again, case)
+        assert r["margins"] == pytest.approx(expected, abs=1e-12)
+        scaled = {k: v / report["scales"][k] for k, v in expected.items()}
+        assert r["objective"] == pytest.approx(max(scaled.values()) if r["verdict"] == "pass" else min(0.0, max(scaled.values())))
+        assert combine(expected, groups_of(again.oracles), report["scales"]) == pytest.approx(max(scaled.values()))
+
+
+def test_criteria_without_a_gradient_leave_the_search_space_filling(tmp_path: pathlib.Path) -> None:
+    data = island()
+    # a comparison of booleans: its margin is 0 wherever the run passes (like a collision count)
+    data["oracle"]["criteria"][0]["expect"] = "((x - 6) * (x - 6) / 4 + (y - 2.5) * (y - 2.5) >= 0.08) == true"
+    path = write(tmp_path, data)
+    main(["falsify", path, "--budget", "32", "--method", "cmaes", "--jobs", "1", "--json", str(tmp_path / "f.json")])
+    report = json.loads((tmp_path / "f.json").read_text())
+    assert report["graded"] == [] and any("space-filling" in n for n in report["notes"])
+    assert {r["phase"] for r in report["runs"]} <= {"start", "shrink", "bound"}
+
+
+# -- shrink, bound, counterexamples -----------------------------------------------------------------
+
+
+def test_boundary_points_lie_within_the_resolution_of_the_true_boundary(tmp_path: pathlib.Path) -> None:
+    main(["falsify", str(ISLAND), "--budget", "120", "--jobs", "2", "--stop", "first", "--json", str(tmp_path / "f.json")])
+    report = json.loads((tmp_path / "f.json").read_text())
+    assert report["boundary"]
+    res = {d["name"]: d["resolution"] for d in report["space"]}
+    for b in report["boundary"]:
+        a, y = b["parameters"]["a"], b["parameters"]["b"]
+        # the island's edge: (a - 6)^2 / 4 + (b - 2.5)^2 = 0.08; along a (or b), the nearest edge point
+        if b["along"] == "a":
+            edge = [6 + s * 2 * (0.08 - (y - 2.5) ** 2) ** 0.5 for s in (-1, 1)]
+            assert min(abs(a - e) for e in edge) <= res["a"]
+        elif b["along"] == "b":
+            edge = [2.5 + s * (0.08 - (a - 6) ** 2 / 4) ** 0.5 for s in (-1, 1)]
+            assert min(abs(y - e) for e in edge) <= res["b"]
+    shrunk = report["counterexamples"][0]
+    nominal = report["parameters"]
+    # the shrunk counterexample is the failing run closest to the nominal point
+    fails = [r for r in report["runs"] if r["verdict"] != "pass"]
+
+    def dist(p: dict[str, float]) -> float:
+        return (((p["a"] - nominal["a"]) / 10) ** 2 + ((p["b"] - nominal["b"]) / 5) ** 2) ** 0.5
+
+    assert dist(shrunk["parameters"]) == pytest.approx(min(dist(r["parameters"]) for r in fails), abs=1e-9)
+    assert report["stop"] == "first" and report["runs_done"] < 120
+
+
+def test_counterexamples_reproduce_their_failure_and_margins_when_run_alone(tmp_path: pathlib.Path) -> None:
+    out = tmp_path / "cases"
+    main(["falsify", str(ISLAND), "--budget", "60", "--jobs", "2", "--out-dir", str(out), "--json", str(tmp_path / "f.json")])
+    report = json.loads((tmp_path / "f.json").read_text())
+    files = sorted(out.iterdir())
+    assert len(files) == len(report["counterexamples"]) >= 1
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    for ce in report["counterexamples"]:
+        path = next(f for f in files if f"[{ce['label']}]" in f.name)
+        done = cli("run", str(path), "--json", str(elsewhere / "r.json"), cwd=elsewhere)
+        assert done.returncode == 1, done.stdout + done.stderr
+        case = btgen_pytrees.load(str(path))
+        again = run(case)
+        assert again.verdict == ce["verdict"]
+        assert criterion_margins(again, case) == ce["margins"]
+
+
+@pytest.mark.skipif(not os.environ.get("CI") and __import__("importlib").util.find_spec("libsumo") is None,
+                    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)")  # fmt: skip
+def test_a_sumo_counterexample_runs_from_any_directory(tmp_path: pathlib.Path) -> None:
+    out = tmp_path / "deep" / "cases"
+    done = cli("falsify", str(CUT_IN), "--budget", "24", "--stop", "first", "--jobs", "2", "--out-dir", str(out),
+               "--json", str(tmp_path / "f.json"))  # fmt: skip
+    assert done.returncode == 1, done.stdout + done.stderr
+    report = json.loads((tmp_path / "f.json").read_text())
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    for f in sorted(out.iterdir()):
+        ran = cli("run", str(f.resolve()), "--json", str(elsewhere / "r.json"), cwd=elsewhere)
+        assert ran.returncode == 1, ran.stdout + ran.stderr
+        verdict = json.loads((elsewhere / "r.json").read_text())["verdict"]
+        label = f.name[f.name.index("[") + 1: f.name.rindex("]")]
+        assert verdict == next(c["verdict"] for c in report["counterexamples"] if c["label"] == label)
+
+
+# -- Dask --------------------------------------------------------------------------------------------
+
+try:
+    import distributed
+except ImportError:  # pragma: no cover - CI installs the extra
+    distributed = None
+
+
+@pytest.mark.skipif(distributed is None and not os.environ.get("CI"), reason="distributed is not installed")
+def test_on_a_dask_local_cluster_the_search_is_the_local_pools(tmp_path: pathlib.Path) -> None:
+    from distributed import LocalCluster
+
+    args = ["falsify", str(ISLAND), "--budget", "40", "--seed", "2"]
+    local = cli(*args, "--jobs", "2", "--json", str(tmp_path / "l.json"))
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.CRITICAL) as cluster:  # fmt: skip
+        remote = cli(*args, "--executor", "dask", "--scheduler", cluster.scheduler_address, "--json", str(tmp_path / "d.json"))
+    assert remote.returncode == local.returncode == 1, remote.stderr
+    assert without_wall((tmp_path / "d.json").read_text()) == without_wall((tmp_path / "l.json").read_text())
+    assert remote.stdout == local.stdout

@@ -245,8 +245,9 @@ def test_counterexamples_reproduce_their_failure_and_margins_when_run_alone(tmp_
     out = tmp_path / "cases"
     main(["falsify", str(ISLAND), "--budget", "60", "--jobs", "2", "--out-dir", str(out), "--json", str(tmp_path / "f.json")])
     report = json.loads((tmp_path / "f.json").read_text())
-    files = sorted(out.iterdir())
+    files = sorted(out.glob("*.json"))
     assert len(files) == len(report["counterexamples"]) >= 1
+    assert sorted(p.with_suffix(".json") for p in out.glob("*.html")) == files  # a replay page for each
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     for ce in report["counterexamples"]:
@@ -269,7 +270,7 @@ def test_a_sumo_counterexample_runs_from_any_directory(tmp_path: pathlib.Path) -
     report = json.loads((tmp_path / "f.json").read_text())
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
-    for f in sorted(out.iterdir()):
+    for f in sorted(out.glob("*.json")):
         ran = cli("run", str(f.resolve()), "--json", str(elsewhere / "r.json"), cwd=elsewhere)
         assert ran.returncode == 1, ran.stdout + ran.stderr
         verdict = json.loads((elsewhere / "r.json").read_text())["verdict"]
@@ -297,3 +298,28 @@ def test_on_a_dask_local_cluster_the_search_is_the_local_pools(tmp_path: pathlib
     assert remote.returncode == local.returncode == 1, remote.stderr
     assert without_wall((tmp_path / "d.json").read_text()) == without_wall((tmp_path / "l.json").read_text())
     assert remote.stdout == local.stdout
+
+
+def test_the_json_report_follows_its_schema(tmp_path: pathlib.Path) -> None:
+    import jsonschema
+
+    schema = json.loads((ROOT / "schemas" / "falsify.schema.json").read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    for args in (["--budget", "80"], ["--budget", "16", "--method", "random"]):
+        main(["falsify", str(ISLAND), "--jobs", "1", *args, "--json", str(tmp_path / "f.json")])
+        report = json.loads((tmp_path / "f.json").read_text())
+        jsonschema.validate(report, schema, cls=jsonschema.Draft202012Validator)
+    data = json.loads(FIG1_SWEEP.read_text())  # a list parameter (choices) and an || nowhere
+    main(["falsify", write(tmp_path, data), "--jobs", "1", "--budget", "40", "--json", str(tmp_path / "g.json")])
+    jsonschema.validate(json.loads((tmp_path / "g.json").read_text()), schema, cls=jsonschema.Draft202012Validator)
+
+
+def test_the_plot_is_drawn_the_same_every_time_and_a_bad_suffix_is_exit_2(tmp_path: pathlib.Path, capsys: Any) -> None:
+    pytest.importorskip("matplotlib")
+    for name in ("a.svg", "b.svg"):
+        assert main(["falsify", str(ISLAND), "--budget", "40", "--jobs", "1", "--plot", str(tmp_path / name)]) == 1
+    svg = (tmp_path / "a.svg").read_text()
+    assert svg == (tmp_path / "b.svg").read_text() and "convergence" in svg and "boundary point" in svg
+    assert main(["falsify", str(ISLAND), "--budget", "8", "--plot", str(tmp_path / "c.gif"), "--json", str(tmp_path / "c.json")]) == 2
+    assert ".svg, .png or .html" in capsys.readouterr().err
+    assert not (tmp_path / "c.json").exists()

@@ -10,6 +10,7 @@ what was found (the outputs are written) and exits 130.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import signal
@@ -17,6 +18,12 @@ import sys
 from typing import Any, Mapping
 
 from .. import batch
+from ..construct import generate
+from ..loader import validate
+from ..render import GraphvizMissing
+from ..run import run
+from ..run.plot import plot_format
+from ..run.replay import replay_html
 from ..errors import InvalidTestCase, Problem
 from ..leaves import default_registry
 from ..output import OutputError, check_target, commit
@@ -25,6 +32,7 @@ from ..sweep.command import Refused, file_name, make_executor, run_variations
 from ..sweep.jobs import VariationOutcome
 from ..sweep.variations import format_value, label
 from .jobs import job_probe
+from .plot import search_plot
 from .report import report_data, table, to_json
 from .sampler import HINT, METHODS, available
 from .search import Search, Settings
@@ -114,10 +122,13 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     criteria = {c.get("id") for c in (sweep.template.get("oracle") or {}).get("criteria", []) if isinstance(c, dict)}
     settings = settings_of(sweep.search, args, {c for c in criteria if isinstance(c, str)}, sweep.source)
     _check_outputs(args)
-    if args.plot:
-        from ..run.plot import plot_format
-
-        plot_format(args.plot)  # a bad suffix or a missing extra: refused before anything runs
+    if args.plot:  # a bad suffix or a missing extra: refused before anything runs
+        try:
+            plot_format(args.plot)
+        except ValueError as problem:
+            raise Refused(str(problem)) from None
+        if importlib.util.find_spec("matplotlib") is None:
+            raise Refused("--plot needs matplotlib: pip install -e '.[plot]'")
     space = Space.of(sweep.variations)
     executor = make_executor(args)
     plugins = tuple(args.plugin or ())
@@ -160,11 +171,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         outputs.append((args.json, to_json(data)))
     if args.out_dir and data["counterexamples"]:
         os.makedirs(args.out_dir, exist_ok=True)
-        outputs += _cases(sweep, data, args.out_dir)
+        outputs += _cases(sweep, data, args.out_dir, plugins)
     if args.plot:
-        from ..run.plot import plot_format
-        from .plot import search_plot
-
         outputs.append((args.plot, search_plot(search, data, plot_format(args.plot))))
     commit(outputs)
     sys.stdout.write(table(data))
@@ -188,13 +196,22 @@ def _check_outputs(args: argparse.Namespace) -> None:
         raise Refused(f"--out-dir {out}: exists and is not a directory")
 
 
-def _cases(sweep: Sweep, data: Mapping[str, Any], out_dir: str) -> list[tuple[str, str]]:
-    """Each counterexample as a concrete case in *out_dir* (runnable from any directory)."""
-    outputs = []
+def _cases(sweep: Sweep, data: Mapping[str, Any], out_dir: str, plugins: tuple[str, ...]) -> list[tuple[str, str | bytes]]:
+    """Each counterexample as a concrete case in *out_dir* (runnable from any directory) and its replay
+    page (``.html`` beside it; skipped with a note when Graphviz is missing)."""
+    outputs: list[tuple[str, str | bytes]] = []
+    registry = default_registry(plugins)
     for k, ce in enumerate(data["counterexamples"]):
         doc = concrete_case(sweep, ce["parameters"], out_dir)
         what = f"counterexample {k + 1} ({ce['kind']}, cluster {ce['cluster']}) of {os.path.basename(sweep.source)} found by falsify: {ce['label']}"
         doc["description"] = f"{doc['description']} ({what})" if doc.get("description") else what[0].upper() + what[1:]
-        name = file_name(sweep.name, ce["label"], ce["run"])
-        outputs.append((os.path.join(out_dir, name), json.dumps(doc, indent=2, ensure_ascii=False) + "\n"))
+        path = os.path.join(out_dir, file_name(sweep.name, ce["label"], ce["run"]))
+        outputs.append((path, json.dumps(doc, indent=2, ensure_ascii=False) + "\n"))
+        try:
+            case = validate(doc, path, registry)
+            page = replay_html(run(case, registry=registry), case, generate(case, registry=registry))
+        except GraphvizMissing as missing:
+            print(f"btgen_pytrees: no replay pages: {missing}", file=sys.stderr)
+            continue
+        outputs.append((os.path.splitext(path)[0] + ".html", page))
     return outputs

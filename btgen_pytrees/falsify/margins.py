@@ -58,7 +58,7 @@ def _node(node: ast.expr, aliases: Mapping[str, str]) -> _Margin:
         return lambda values: pick(p(values) for p in parts)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not):
         inner = _node(node.operand, aliases)
-        return lambda values: -inner(values)
+        return lambda values: 0.0 - inner(values)
     if isinstance(node, ast.Compare):
         sides = [_value_fn(n, aliases) for n in (node.left, *node.comparators)]
         ops = [type(op) for op in node.ops]
@@ -82,7 +82,7 @@ def _link(op: type, a: float, b: float) -> float:
     if op in (ast.Gt, ast.GtE):
         return a - b
     if op is ast.Eq:
-        return -abs(a - b)
+        return 0.0 - abs(a - b)  # 0.0, not -0.0, on equality
     return abs(a - b)
 
 

@@ -1,0 +1,309 @@
+"""The falsify benchmark: ``python -m benchmarks.falsify`` (issue 22).
+
+Three cases in ``benchmarks/falsify_cases/``, each failing on a small part of its box:
+
+* ``island_2d`` - built-in simulator, 2 parameters: two ramps end inside an
+  ellipse (about 1 % of the box);
+* ``island_4d`` - built-in simulator, 4 parameters: the same with the ramps'
+  durations (about 1 %);
+* ``cut_in_3d`` - SUMO, 3 parameters: the cut-in gap, the ego's and the
+  cutter's speeds; fails where the ACC lets the gap fall below 1 m.
+
+**Ground truth** is a dense grid of real runs, computed once (``--truth``, or
+when the stored file is missing) and stored beside the case
+(``NAME.truth.json``: the grid's axes and one character per point, ``1``
+failing, in sweep order): the failing share *p* of the box, uniform random's
+expected median runs to a first failure (ln 2 / -ln(1 - p)) and the grid's
+first failure in the sweep's order.
+
+For each case and method, ``--seeds`` searches (default 20) with ``--budget``
+runs (default 200) and ``stop: first`` run in this process, one run after the
+other (the search is the same on any number of workers): the median runs to
+the first failure, the seeds that found one, the search's own time (sampler,
+model, bookkeeping: everything but the runs) over the runs' time, and for the
+default method the boundary points' distance to the true boundary in units of
+the declared resolution (the built-in cases: from the ellipse's equation; SUMO:
+half the width of the pass/fail pair, an upper bound, since the boundary lies
+between a real passing and a real failing run).
+
+``--sumo-loop`` compares a SUMO run inside a search with the same run done by a
+bare libsumo loop (start, set speeds, step, change lane, read, close).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+if __package__ in (None, ""):  # run as a file
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from btgen_pytrees.falsify import Search, Settings, Space  # noqa: E402
+from btgen_pytrees.falsify.jobs import probe  # noqa: E402
+from btgen_pytrees.sweep import load_sweep  # noqa: E402
+
+__all__ = ["main", "CASES", "truth", "search_case", "GOALS"]
+
+ROOT = Path(__file__).resolve().parent
+CASES = ("island_2d", "island_4d", "cut_in_3d")
+METHODS = ("auto", "tpe", "sobol", "random")
+TRUTH_GRID = {"island_2d": None, "island_4d": 13, "cut_in_3d": (15, 9, 11)}
+"""Points per parameter of the truth grid (None: the declared resolution)."""
+GOALS = {"median_vs_random": 0.2, "found": 1.0, "boundary_in_resolution": 1.0, "search_cost": 0.05, "sumo_vs_bare": 1.5}
+
+
+def case_path(name: str) -> Path:
+    return ROOT / "falsify_cases" / f"{name}.json"
+
+
+def _sweep(name: str) -> Any:
+    return load_sweep(str(case_path(name)), check_all=False, max_variations=10**18)
+
+
+def _evaluator(sweep: Any) -> tuple[Callable[[list[dict[str, Any]]], list[dict[str, Any]]], list[float]]:
+    spent = [0.0]
+
+    def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        t0 = time.perf_counter()
+        rows = [probe("x", (), sweep.source, sweep.document({**sweep.defaults, **v})).row for v in points]
+        spent[0] += time.perf_counter() - t0
+        return rows
+
+    return evaluate, spent
+
+
+# -- ground truth ------------------------------------------------------------------------------------
+
+
+def _axes(name: str, space: Space) -> list[list[float]]:
+    size = TRUTH_GRID[name]
+    axes = []
+    for k, d in enumerate(space.dimensions):
+        n = d.grid_size() if size is None else (size[k] if isinstance(size, tuple) else size)
+        axes.append([d.value((i / (n - 1)) if n > 1 else 0.5) for i in range(n)])
+    return axes
+
+
+def truth(name: str, compute: bool = False) -> dict[str, Any]:
+    """The stored ground truth of case *name* (computed and stored first if asked or missing)."""
+    path = ROOT / "falsify_cases" / f"{name}.truth.json"
+    if path.exists() and not compute:
+        return json.loads(path.read_text())  # type: ignore[no-any-return]
+    sweep = _sweep(name)
+    space = Space.of(sweep.variations)
+    axes = _axes(name, space)
+    names = [d.name for d in space.dimensions]
+    total = math.prod(len(a) for a in axes)
+    bits = []
+    t0 = time.perf_counter()
+    for flat in range(total):
+        rest, values = flat, {}
+        for n, axis in zip(reversed(names), reversed(axes)):
+            rest, i = divmod(rest, len(axis))
+            values[n] = axis[i]
+        row = probe("x", (), sweep.source, sweep.document({**sweep.defaults, **values})).row
+        bits.append("1" if row["verdict"] != "pass" else "0")
+    data = {"case": name, "command": f"python -m benchmarks.falsify --truth --cases {name}",
+            "axes": dict(zip(names, axes)), "points": total, "failing": bits.count("1"),
+            "share": bits.count("1") / total, "first_failure": bits.index("1") + 1 if "1" in bits else None,
+            "seconds": round(time.perf_counter() - t0, 1), "bits": "".join(bits)}  # fmt: skip
+    path.write_text(json.dumps(data) + "\n")
+    return data
+
+
+def _declared_first(name: str, t: dict[str, Any], space: Space) -> int | None:
+    """The grid at the declared resolution, in sweep order: the index of its first failing point (from the truth grid)."""
+    if t["first_failure"] is None:
+        return None
+    axes = list(t["axes"].values())
+    rest, point = t["first_failure"] - 1, []
+    for axis in reversed(axes):
+        rest, i = divmod(rest, len(axis))
+        point.append(axis[i])
+    point.reverse()
+    flat = 0
+    for d, v in zip(space.dimensions, point):
+        flat = flat * d.grid_size() + round((v - d.low) / d.resolution)
+    return flat + 1
+
+
+# -- boundary distance ---------------------------------------------------------------------------------
+
+
+def _island(name: str, p: dict[str, float]) -> float:
+    """The built-in cases' criterion at 3 s, from its equation (> 0 passes)."""
+    if name == "island_2d":
+        return (p["a"] - 6) ** 2 / 4 + (p["b"] - 2.5) ** 2 - 0.08
+    x = p["a"] * min(1.0, 3 / p["d1"])
+    y = p["b"] * min(1.0, 3 / p["d2"])
+    return (x - 6) ** 2 / 4 + (y - 2.5) ** 2 - 0.06
+
+
+def _distance(name: str, search: Search, boundary: Any) -> float:
+    """Distance of a boundary point to the true boundary along its parameter, in resolutions."""
+    p, f = search.runs[boundary.passing], search.runs[boundary.failing]
+    along = boundary.parameter
+    d = next(d for d in search.space.dimensions if d.name == along)
+    mid = {k: (p.parameters[k] + f.parameters[k]) / 2 for k in p.parameters}
+    if name == "cut_in_3d":  # no equation: the boundary lies between the pair
+        return abs(p.parameters[along] - f.parameters[along]) / 2 / d.resolution
+    step = d.resolution / 1000
+    best = math.inf
+    for k in range(-5000, 5001):  # the nearest sign change within 5 resolutions
+        a, b = dict(mid), dict(mid)
+        a[along] += k * step
+        b[along] += (k + 1) * step
+        if (_island(name, a) > 0) != (_island(name, b) > 0):
+            best = min(best, abs(k + 0.5) * step)
+    return best / d.resolution
+
+
+# -- searches --------------------------------------------------------------------------------------------
+
+
+def search_case(name: str, method: str, seeds: int, budget: int) -> dict[str, Any]:
+    sweep = _sweep(name)
+    space = Space.of(sweep.variations)
+    firsts, distances, widths, own, runs_time = [], [], [], 0.0, 0.0
+    for seed in range(seeds):
+        evaluate, spent = _evaluator(sweep)
+        t0 = time.perf_counter()
+        search = Search(space, sweep.defaults, Settings(method=method, seed=seed, budget=budget, stop="first"), evaluate).run()
+        total = time.perf_counter() - t0
+        own += total - spent[0]
+        runs_time += spent[0]
+        firsts.append(search.first_failure)
+        if method == "auto":
+            for c in search.clusters:
+                for b in c.boundary:
+                    if b.parameter is not None:
+                        distances.append(_distance(name, search, b))
+    found = [f for f in firsts if f is not None]
+    return {"case": name, "method": search.method if method != "auto" else f"auto ({search.method})", "seeds": seeds,
+            "found": len(found), "median": statistics.median(f if f is not None else budget + 1 for f in firsts),
+            "firsts": firsts, "search_cost": own / runs_time if runs_time else None,
+            "boundary_max": max(distances) if distances else None, "boundary_points": len(distances)}  # fmt: skip
+
+
+# -- a bare libsumo loop -----------------------------------------------------------------------------------
+
+
+def sumo_loop(points: int = 20) -> dict[str, Any]:
+    """cut_in_3d's run inside a search (probe: validate + run) against the same scenario in a bare libsumo loop."""
+    import libsumo
+
+    sweep = _sweep("cut_in_3d")
+    space = Space.of(sweep.variations)
+    import random
+
+    rng = random.Random(1)
+    values = [space.values([rng.random() for _ in space.dimensions]) for _ in range(points)]
+    config = str((case_path("cut_in_3d").parent / sweep.template["system"]["config"]).resolve())
+
+    def bare(v: dict[str, Any]) -> bool:
+        libsumo.start(["sumo", "-c", config, "--step-length", "0.1", "--begin", "0", "--no-step-log", "true",
+                       "--no-warnings", "true", "--duration-log.disable", "true", "--seed", "1",
+                       "--xml-validation", "never", "--xml-validation.net", "never", "--xml-validation.routes", "never"])  # fmt: skip
+        veh = libsumo.vehicle
+        libsumo.simulationStep()
+        veh.setSpeed("cutter", v["cutter_speed"])
+        veh.setSpeed("ego", v["ego_speed"])
+        ok, cut, after = True, False, 0
+        for _ in range(400):
+            libsumo.simulationStep()
+            ego, cutter = veh.getPosition("ego")[0], veh.getPosition("cutter")[0]
+            leader = veh.getLeader("ego", 1000.0)
+            if leader and leader[1] < 1.0 or libsumo.simulation.getCollidingVehiclesNumber():
+                ok = False
+                break
+            if not cut and cutter - 5 - ego <= v["gap"]:
+                veh.setLaneChangeMode("cutter", 0)
+                veh.changeLane("cutter", 0, 2.0)
+                cut = True
+            elif cut:
+                after += 1
+                if after >= 80:
+                    break
+        libsumo.close()
+        return ok
+
+    bare(values[0])  # warm-up (imports, caches)
+    t0 = time.perf_counter()
+    for v in values:
+        bare(v)
+    bare_s = (time.perf_counter() - t0) / points
+    probe("x", (), sweep.source, sweep.document({**sweep.defaults, **values[0]}))
+    t0 = time.perf_counter()
+    for v in values:
+        probe("x", (), sweep.source, sweep.document({**sweep.defaults, **v}))
+    search_s = (time.perf_counter() - t0) / points
+    return {"points": points, "bare_ms": bare_s * 1000, "search_ms": search_s * 1000, "ratio": search_s / bare_s}
+
+
+# -- the report --------------------------------------------------------------------------------------------
+
+
+def table(rows: Sequence[dict[str, Any]], truths: dict[str, dict[str, Any]], budget: int) -> str:
+    lines = ["| case | method | median runs to 1st failure | seeds falsified | vs uniform random | search's own cost | boundary (max, resolutions) |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
+    for r in rows:
+        t = truths[r["case"]]
+        p = t["share"]
+        expected = math.log(2) / -math.log(1 - p) if 0 < p < 1 else None
+        ratio = f"{r['median'] / expected:.2f}" if expected else "-"
+        cost = f"{100 * r['search_cost']:.1f} %" if r["search_cost"] is not None else "-"
+        bound = f"{r['boundary_max']:.2f} ({r['boundary_points']} points)" if r["boundary_max"] is not None else "-"
+        lines.append(f"| {r['case']} | {r['method']} | {r['median']:g} | {r['found']}/{r['seeds']} | {ratio} | {cost} | {bound} |")
+    lines.append("")
+    lines.append("| case | failing share (truth grid) | uniform random: median runs / found within budget | grid at the declared resolution: points / first failure |")
+    lines.append("| --- | --- | --- | --- |")
+    for name, t in truths.items():
+        p = t["share"]
+        space = Space.of(_sweep(name).variations)
+        median = math.log(2) / -math.log(1 - p) if 0 < p < 1 else None
+        chance = 1 - (1 - p) ** budget
+        first = _declared_first(name, t, space)
+        lines.append(f"| {name} | {100 * p:.2f} % ({t['failing']} of {t['points']}) | {median:.0f} / {100 * chance:.0f} % "
+                     f"| {space.grid_size():,} / {first:,} |")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.falsify", description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", default=",".join(CASES), help="comma-separated case names")
+    parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated methods")
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--budget", type=int, default=200)
+    parser.add_argument("--truth", action="store_true", help="compute the ground-truth grids again and store them")
+    parser.add_argument("--sumo-loop", action="store_true", help="also compare a SUMO run in a search with a bare libsumo loop")
+    parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
+    args = parser.parse_args(argv)
+    cases = [c for c in args.cases.split(",") if c]
+    truths = {c: truth(c, args.truth) for c in cases}
+    rows = []
+    for c in cases:
+        for m in args.methods.split(","):
+            rows.append(search_case(c, m, args.seeds, args.budget))
+            print(f"{c} {m}: median {rows[-1]['median']}, found {rows[-1]['found']}/{args.seeds}", file=sys.stderr)
+    text = table(rows, truths, args.budget)
+    loop = sumo_loop() if args.sumo_loop else None
+    if loop:
+        text += (f"\nSUMO run inside a search: {loop['search_ms']:.1f} ms, bare libsumo loop: {loop['bare_ms']:.1f} ms "
+                 f"({loop['ratio']:.2f}x; goal <= {GOALS['sumo_vs_bare']}x)\n")  # fmt: skip
+    text += f"\n{platform.python_implementation()} {platform.python_version()}, {platform.machine()}; in-process runs, one after the other\n"
+    sys.stdout.write(text)
+    if args.json:
+        Path(args.json).write_text(json.dumps({"rows": rows, "truth": {k: {x: v for x, v in t.items() if x != "bits"} for k, t in truths.items()},
+                                               "sumo_loop": loop}, indent=2) + "\n")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -54,7 +54,7 @@ __all__ = ["main", "CASES", "truth", "search_case", "GOALS"]
 ROOT = Path(__file__).resolve().parent
 CASES = ("island_2d", "island_4d", "cut_in_3d")
 METHODS = ("auto", "tpe", "sobol", "random")
-TRUTH_GRID = {"island_2d": None, "island_4d": 13, "cut_in_3d": (15, 9, 11)}
+TRUTH_GRID = {"island_2d": None, "island_4d": 13, "cut_in_3d": (20, 9, 9)}
 """Points per parameter of the truth grid (None: the declared resolution)."""
 GOALS = {"median_vs_random": 0.2, "found": 1.0, "boundary_in_resolution": 1.0, "search_cost": 0.05, "sumo_vs_bare": 1.5}
 

@@ -177,11 +177,13 @@ def combine(margins: Mapping[str, float | None], groups: Mapping[str, tuple[str,
             scales: Mapping[str, float], use: Callable[[str], bool] = lambda _: True) -> float | None:  # fmt: skip
     """The objective: scaled margins, min/max within each group by its relation, min across groups.
 
-    Criteria for which *use* is false, or without a margin, are left out (``None`` when nothing is left).
+    Criteria for which *use* is false, without a margin or with an infinite one (a truth value: no
+    distance to measure) are left out (``None`` when nothing is left).
     """
     totals = []
     for relation, ids in groups.values():
-        values = [margins[i] / scales.get(i, 1.0) for i in ids if use(i) and margins.get(i) is not None]  # type: ignore[operator]
+        values = [margins[i] / scales.get(i, 1.0) for i in ids  # type: ignore[operator]
+                  if use(i) and margins.get(i) is not None and math.isfinite(margins[i])]  # type: ignore[arg-type]  # fmt: skip
         if values:
             totals.append(max(values) if relation == "||" else min(values))
     return min(totals) if totals else None

@@ -207,9 +207,9 @@ class Search:
         ids = [i for _, ids in self.groups.values() for i in ids]
         graded = []
         for i in ids:
-            seen = [r.row["margins"][i] for r in self.runs if (r.row.get("margins") or {}).get(i) is not None]
-            passing = {round(r.row["margins"][i], 12) for r in self.runs
-                       if not r.failed and (r.row.get("margins") or {}).get(i) is not None}  # fmt: skip
+            seen = [m for r in self.runs if (m := (r.row.get("margins") or {}).get(i)) is not None and math.isfinite(m)]
+            passing = {round(m, 12) for r in self.runs if not r.failed
+                       and (m := (r.row.get("margins") or {}).get(i)) is not None and math.isfinite(m)}  # fmt: skip
             given = self.settings.scale.get(i)
             if len(seen) > 1:
                 mean = sum(seen) / len(seen)

@@ -284,8 +284,8 @@ class Sampler:
             return np.stack(cols, axis=1)
 
         coef = np.linalg.lstsq(features(X), Y, rcond=None)[0]
-        around = np.clip(X[0] + self._rng.normal(0.0, 0.1, size=(2048, d)), 0.0, 1.0)
-        candidates = np.vstack([around, self._rng.random((2048, d))])
+        around = np.clip(X[0] + self._rng.normal(0.0, 0.1, size=(512, d)), 0.0, 1.0)
+        candidates = np.vstack([around, self._rng.random((512, d))])
         values = features(candidates) @ coef
         point = candidates[int(np.argmin(values))]
         return np.clip(point, 0.0, 1.0)

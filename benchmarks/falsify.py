@@ -54,8 +54,11 @@ __all__ = ["main", "CASES", "truth", "search_case", "GOALS"]
 ROOT = Path(__file__).resolve().parent
 CASES = ("island_2d", "island_4d", "cut_in_3d")
 METHODS = ("auto", "tpe", "sobol", "random")
-TRUTH_GRID = {"island_2d": None, "island_4d": 13, "cut_in_3d": (20, 9, 9)}
+TRUTH_GRID: dict[str, Any] = {"island_2d": None, "island_4d": 13, "cut_in_3d": (15, 6, 5)}
 """Points per parameter of the truth grid (None: the declared resolution)."""
+FOCUS = {"cut_in_3d": ("gap", 1.5, 5.0, 20)}
+"""Where the truth grid is dense: (parameter, low, high, points); outside it a coarse grid (``outside``)
+must fail nowhere, and the share counts the dense part only, weighted by its part of the range."""
 GOALS = {"median_vs_random": 0.2, "found": 1.0, "boundary_in_resolution": 1.0, "search_cost": 0.05, "sumo_vs_bare": 1.5}
 
 
@@ -82,13 +85,32 @@ def _evaluator(sweep: Any) -> tuple[Callable[[list[dict[str, Any]]], list[dict[s
 # -- ground truth ------------------------------------------------------------------------------------
 
 
-def _axes(name: str, space: Space) -> list[list[float]]:
+def _axes(name: str, space: Space, focus: bool = False) -> list[list[float]]:
     size = TRUTH_GRID[name]
     axes = []
     for k, d in enumerate(space.dimensions):
         n = d.grid_size() if size is None else (size[k] if isinstance(size, tuple) else size)
-        axes.append([d.value((i / (n - 1)) if n > 1 else 0.5) for i in range(n)])
+        if focus and FOCUS.get(name, ("",))[0] == d.name:
+            _, low, high, m = FOCUS[name]
+            axes.append([round(low + (high - low) * i / (m - 1), 6) for i in range(m)])
+        else:
+            axes.append([d.value((i / (n - 1)) if n > 1 else 0.5) for i in range(n)])
+    if not focus and name in FOCUS:  # the coarse grid: only the part outside the focus
+        k = [d.name for d in space.dimensions].index(FOCUS[name][0])
+        axes[k] = [v for v in axes[k] if v > FOCUS[name][2]]
     return axes
+
+
+def _grid(sweep: Any, names: list[str], axes: list[list[float]]) -> str:
+    bits = []
+    for flat in range(math.prod(len(a) for a in axes)):
+        rest, values = flat, {}
+        for n, axis in zip(reversed(names), reversed(axes)):
+            rest, i = divmod(rest, len(axis))
+            values[n] = axis[i]
+        row = probe("x", (), sweep.source, sweep.document({**sweep.defaults, **values})).row
+        bits.append("1" if row["verdict"] != "pass" else "0")
+    return "".join(bits)
 
 
 def truth(name: str, compute: bool = False) -> dict[str, Any]:
@@ -98,22 +120,23 @@ def truth(name: str, compute: bool = False) -> dict[str, Any]:
         return json.loads(path.read_text())  # type: ignore[no-any-return]
     sweep = _sweep(name)
     space = Space.of(sweep.variations)
-    axes = _axes(name, space)
     names = [d.name for d in space.dimensions]
-    total = math.prod(len(a) for a in axes)
-    bits = []
     t0 = time.perf_counter()
-    for flat in range(total):
-        rest, values = flat, {}
-        for n, axis in zip(reversed(names), reversed(axes)):
-            rest, i = divmod(rest, len(axis))
-            values[n] = axis[i]
-        row = probe("x", (), sweep.source, sweep.document({**sweep.defaults, **values})).row
-        bits.append("1" if row["verdict"] != "pass" else "0")
+    axes = _axes(name, space, focus=name in FOCUS)
+    bits = _grid(sweep, names, axes)
+    total = len(bits)
+    share = bits.count("1") / total
+    outside = None
+    if name in FOCUS:
+        coarse = _axes(name, space)
+        outer = _grid(sweep, names, coarse)
+        outside = {"axes": dict(zip(names, coarse)), "points": len(outer), "failing": outer.count("1")}
+        d = next(d for d in space.dimensions if d.name == FOCUS[name][0])
+        share *= (FOCUS[name][2] - d.low) / (d.high - d.low)
     data = {"case": name, "command": f"python -m benchmarks.falsify --truth --cases {name}",
-            "axes": dict(zip(names, axes)), "points": total, "failing": bits.count("1"),
-            "share": bits.count("1") / total, "first_failure": bits.index("1") + 1 if "1" in bits else None,
-            "seconds": round(time.perf_counter() - t0, 1), "bits": "".join(bits)}  # fmt: skip
+            "axes": dict(zip(names, axes)), "points": total, "failing": bits.count("1"), "share": share,
+            "first_failure": bits.index("1") + 1 if "1" in bits else None, "outside": outside,
+            "seconds": round(time.perf_counter() - t0, 1), "bits": bits}  # fmt: skip
     path.write_text(json.dumps(data) + "\n")
     return data
 

@@ -270,10 +270,13 @@ class Search:
             if self._closer(other.shrunk, into.shrunk):
                 into.shrunk = other.shrunk
             self.clusters.remove(other)
-        if not into.refined and self._closer(run.index, into.shrunk):
-            into.shrunk = run.index
         into.members.sort()
+        self._closest(into)
         return into
+
+    def _closest(self, cluster: Cluster) -> None:
+        """The cluster's counterexample: its failing run closest to the nominal point (the first such)."""
+        cluster.shrunk = min(cluster.members, key=lambda i: (self.space.distance(self.runs[i].unit, self.nominal), i))
 
     def _closer(self, a: int, b: int) -> bool:
         return self.space.distance(self.runs[a].unit, self.nominal) < self.space.distance(self.runs[b].unit, self.nominal)
@@ -287,6 +290,7 @@ class Search:
                     if len(points) > self.left:
                         self.notes.append(f"the budget ended during the {phase} of cluster {self.clusters.index(cluster) + 1}")
                         cluster.refined = True
+                        self._closest(cluster)
                         return
                     runs = self._run_points(points, phase)
                     for r in runs:
@@ -296,6 +300,7 @@ class Search:
             except StopIteration:
                 pass
         cluster.refined = True
+        self._closest(cluster)
 
     def _resolved(self, a: Sequence[float], b: Sequence[float]) -> bool:
         return all(abs(x - y) <= d.unit_resolution(x) + 1e-12 for d, x, y in zip(self.space.dimensions, a, b) if d.continuous)

@@ -45,8 +45,12 @@ from typing import Any, Callable, Sequence
 if __package__ in (None, ""):  # run as a file
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from btgen_pytrees.leaves import default_registry  # noqa: E402
+from btgen_pytrees.loader import validate  # noqa: E402
 from btgen_pytrees.falsify import Search, Settings, Space  # noqa: E402
-from btgen_pytrees.falsify.jobs import probe  # noqa: E402
+from btgen_pytrees.falsify.jobs import timed  # noqa: E402
+from btgen_pytrees.falsify.margins import groups_of, row_margins  # noqa: E402
+from btgen_pytrees.sweep.jobs import RunOptions  # noqa: E402
 from btgen_pytrees.sweep import load_sweep  # noqa: E402
 
 __all__ = ["main", "CASES", "truth", "search_case", "GOALS"]
@@ -54,7 +58,7 @@ __all__ = ["main", "CASES", "truth", "search_case", "GOALS"]
 ROOT = Path(__file__).resolve().parent
 CASES = ("island_2d", "island_4d", "cut_in_3d")
 METHODS = ("auto", "tpe", "sobol", "random")
-TRUTH_GRID: dict[str, Any] = {"island_2d": None, "island_4d": 13, "cut_in_3d": (15, 6, 5)}
+TRUTH_GRID: dict[str, Any] = {"island_2d": None, "island_4d": 9, "cut_in_3d": (15, 6, 5)}
 """Points per parameter of the truth grid (None: the declared resolution)."""
 FOCUS = {"cut_in_3d": ("gap", 1.5, 5.0, 20)}
 """Where the truth grid is dense: (parameter, low, high, points); outside it a coarse grid (``outside``)
@@ -70,12 +74,20 @@ def _sweep(name: str) -> Any:
     return load_sweep(str(case_path(name)), check_all=False, max_variations=10**18)
 
 
+def _row(sweep: Any, values: dict[str, Any]) -> dict[str, Any]:
+    """One run in this process, as the search's job does it (its sweep row, ``wall``, ``margins``)."""
+    outcome = timed("x", RunOptions(), sweep.source, sweep.document({**sweep.defaults, **values}), None)
+    row = dict(getattr(outcome, "row", {"verdict": "error", "oracles": []}))
+    row["margins"] = row_margins(row)
+    return row
+
+
 def _evaluator(sweep: Any) -> tuple[Callable[[list[dict[str, Any]]], list[dict[str, Any]]], list[float]]:
     spent = [0.0]
 
     def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
         t0 = time.perf_counter()
-        rows = [probe("x", (), sweep.source, sweep.document({**sweep.defaults, **v})).row for v in points]
+        rows = [_row(sweep, v) for v in points]
         spent[0] += time.perf_counter() - t0
         return rows
 
@@ -108,7 +120,7 @@ def _grid(sweep: Any, names: list[str], axes: list[list[float]]) -> str:
         for n, axis in zip(reversed(names), reversed(axes)):
             rest, i = divmod(rest, len(axis))
             values[n] = axis[i]
-        row = probe("x", (), sweep.source, sweep.document({**sweep.defaults, **values})).row
+        row = _row(sweep, values)
         bits.append("1" if row["verdict"] != "pass" else "0")
     return "".join(bits)
 
@@ -194,11 +206,13 @@ def _distance(name: str, search: Search, boundary: Any) -> float:
 def search_case(name: str, method: str, seeds: int, budget: int) -> dict[str, Any]:
     sweep = _sweep(name)
     space = Space.of(sweep.variations)
-    firsts, distances, widths, own, runs_time = [], [], [], 0.0, 0.0
+    firsts, distances, own, runs_time = [], [], 0.0, 0.0
+    groups = groups_of(validate(sweep.document(sweep.defaults), sweep.source, default_registry()))
     for seed in range(seeds):
         evaluate, spent = _evaluator(sweep)
         t0 = time.perf_counter()
-        search = Search(space, sweep.defaults, Settings(method=method, seed=seed, budget=budget, stop="first"), evaluate).run()
+        settings = Settings(method=method, seed=seed, budget=budget, stop="first")
+        search = Search(space, sweep.defaults, settings, evaluate, groups).run()
         total = time.perf_counter() - t0
         own += total - spent[0]
         runs_time += spent[0]
@@ -219,7 +233,7 @@ def search_case(name: str, method: str, seeds: int, budget: int) -> dict[str, An
 
 
 def sumo_loop(points: int = 20) -> dict[str, Any]:
-    """cut_in_3d's run inside a search (probe: validate + run) against the same scenario in a bare libsumo loop."""
+    """cut_in_3d's run inside a search (validate + run, as the search's job) against the same scenario in a bare libsumo loop."""
     import libsumo
 
     sweep = _sweep("cut_in_3d")
@@ -262,10 +276,10 @@ def sumo_loop(points: int = 20) -> dict[str, Any]:
     for v in values:
         bare(v)
     bare_s = (time.perf_counter() - t0) / points
-    probe("x", (), sweep.source, sweep.document({**sweep.defaults, **values[0]}))
+    _row(sweep, values[0])
     t0 = time.perf_counter()
     for v in values:
-        probe("x", (), sweep.source, sweep.document({**sweep.defaults, **v}))
+        _row(sweep, v)
     search_s = (time.perf_counter() - t0) / points
     return {"points": points, "bare_ms": bare_s * 1000, "search_ms": search_s * 1000, "ratio": search_s / bare_s}
 

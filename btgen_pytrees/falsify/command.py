@@ -25,13 +25,14 @@ from ..run import run
 from ..run.plot import plot_format
 from ..run.replay import replay_html
 from ..errors import InvalidTestCase, Problem
-from ..leaves import default_registry
+from ..leaves import Registry, default_registry
 from ..output import OutputError, check_target, commit
 from ..sweep.case import Sweep, Variation, load_sweep
-from ..sweep.command import Refused, file_name, make_executor, run_variations
+from ..sweep.command import Refused, file_name, make_executor, run_options, run_variations
 from ..sweep.jobs import VariationOutcome
 from ..sweep.variations import format_value, label
 from .jobs import job_probe
+from .margins import groups_of, row_margins
 from .plot import search_plot
 from .report import report_data, table, to_json
 from .sampler import HINT, METHODS, available
@@ -130,8 +131,10 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         if importlib.util.find_spec("matplotlib") is None:
             raise Refused("--plot needs matplotlib: pip install -e '.[plot]'")
     space = Space.of(sweep.variations)
+    registry = default_registry(args.plugin or ())
+    groups = groups_of(validate(concrete_case(sweep, {}), sweep.source, registry))
     executor = make_executor(args)
-    plugins = tuple(args.plugin or ())
+    options = run_options(args)
     stream = batch.progress_stream()
     counter = [0]
 
@@ -141,17 +144,19 @@ def cmd_falsify(args: argparse.Namespace) -> int:
             point = tuple(values.items())
             variations.append(Variation(counter[0], point, {**sweep.defaults, **values}, concrete_case(sweep, values)))
             counter[0] += 1
-        outcomes = run_variations(sweep, variations, plugins, None, args.jobs, executor, None, job=job_probe)
+        outcomes = run_variations(sweep, variations, options, None, args.jobs, executor, None, job=job_probe)
         rows = []
         for o in outcomes:
             if isinstance(o, VariationOutcome):
-                rows.append(dict(o.row))
+                row = dict(o.row)
             else:
-                rows.append({"verdict": "error", "message": o.summary if not o.problems else "; ".join(o.problems),
-                             "duration": 0.0, "ticks": 0, "margins": {}, "wall": 0.0})  # fmt: skip
+                row = {"verdict": "error", "message": o.summary if not o.problems else "; ".join(o.problems),
+                       "duration": 0.0, "ticks": 0, "oracles": [], "wall": 0.0}  # fmt: skip
+            row["margins"] = row_margins(row)
+            rows.append(row)
         return rows
 
-    search = Search(space, sweep.defaults, settings, evaluate, _progress_line(stream) if stream else None)
+    search = Search(space, sweep.defaults, settings, evaluate, groups, _progress_line(stream) if stream else None)
     signum = None
     try:
         try:
@@ -171,7 +176,7 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         outputs.append((args.json, to_json(data)))
     if args.out_dir and data["counterexamples"]:
         os.makedirs(args.out_dir, exist_ok=True)
-        outputs += _cases(sweep, data, args.out_dir, plugins)
+        outputs += _cases(sweep, data, args.out_dir, registry)
     if args.plot:
         outputs.append((args.plot, search_plot(search, data, plot_format(args.plot))))
     commit(outputs)
@@ -196,11 +201,10 @@ def _check_outputs(args: argparse.Namespace) -> None:
         raise Refused(f"--out-dir {out}: exists and is not a directory")
 
 
-def _cases(sweep: Sweep, data: Mapping[str, Any], out_dir: str, plugins: tuple[str, ...]) -> list[tuple[str, str | bytes]]:
+def _cases(sweep: Sweep, data: Mapping[str, Any], out_dir: str, registry: Registry) -> list[tuple[str, str | bytes]]:
     """Each counterexample as a concrete case in *out_dir* (runnable from any directory) and its replay
     page (``.html`` beside it; skipped with a note when Graphviz is missing)."""
     outputs: list[tuple[str, str | bytes]] = []
-    registry = default_registry(plugins)
     for k, ce in enumerate(data["counterexamples"]):
         doc = concrete_case(sweep, ce["parameters"], out_dir)
         what = f"counterexample {k + 1} ({ce['kind']}, cluster {ce['cluster']}) of {os.path.basename(sweep.source)} found by falsify: {ce['label']}"

@@ -106,7 +106,8 @@ class Cluster:
 
 
 Evaluate = Callable[[list[dict[str, Value]]], list[dict[str, Any]]]
-"""Runs the given parameter values (in order) and returns each run's row."""
+"""Runs the given parameter values (in order) and returns each run's row (a sweep row with ``margins``:
+criterion id -> the report's margin, and ``wall``)."""
 
 
 class Search:
@@ -116,12 +117,13 @@ class Search:
         space: the box
         nominal: the sweep's ``parameters`` (defaults)
         settings: budget, method, seed, batch, stop rule, scales
-        evaluate: runs a batch (the sweep's executors); raises to stop (Ctrl-C)
+        evaluate: runs a batch (the sweep's executors); raises to stop (Ctrl-C); each row has ``margins``
+        groups: the oracle's groups, ``{group: (relation, [criterion ids])}`` (:func:`.margins.groups_of`)
         progress: called after each batch with the search (a progress line)
     """
 
     def __init__(self, space: Space, nominal: Mapping[str, Value], settings: Settings, evaluate: Evaluate,
-                 progress: Callable[["Search"], None] | None = None):  # fmt: skip
+                 groups: Mapping[str, tuple[str, Sequence[str]]], progress: Callable[["Search"], None] | None = None):  # fmt: skip
         self.space = space
         self.settings = settings
         self.evaluate = evaluate
@@ -135,7 +137,7 @@ class Search:
         self.clusters: list[Cluster] = []
         self.scales: dict[str, float] = {}
         self.graded: list[str] | None = None
-        self.groups: dict[str, tuple[str, list[str]]] = {}
+        self.groups = {g: (relation, list(ids)) for g, (relation, ids) in groups.items()}
         self.notes: list[str] = []
         self.interrupted = False
         self.first_failure: int | None = None
@@ -179,8 +181,6 @@ class Search:
         rows = self.evaluate(values)
         out = []
         for u, v, row in zip(units, values, rows):
-            if row.get("groups") and not self.groups:
-                self.groups = {g: (rel, list(ids)) for g, (rel, ids) in row["groups"].items()}
             r = Run(len(self.runs), phase, u, v, row)
             r.objective = self._objective(r)
             self.runs.append(r)

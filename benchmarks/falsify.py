@@ -58,7 +58,7 @@ __all__ = ["main", "CASES", "truth", "search_case", "GOALS"]
 ROOT = Path(__file__).resolve().parent
 CASES = ("island_2d", "island_4d", "cut_in_3d")
 METHODS = ("auto", "tpe", "sobol", "random")
-TRUTH_GRID: dict[str, Any] = {"island_2d": None, "island_4d": 9, "cut_in_3d": (15, 6, 5)}
+TRUTH_GRID: dict[str, Any] = {"island_2d": 101, "island_4d": 9, "cut_in_3d": (15, 6, 5)}
 """Points per parameter of the truth grid (None: the declared resolution)."""
 FOCUS = {"cut_in_3d": ("gap", 1.5, 5.0, 20)}
 """Where the truth grid is dense: (parameter, low, high, points); outside it a coarse grid (``outside``)

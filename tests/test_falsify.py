@@ -303,3 +303,13 @@ def test_the_plot_is_drawn_the_same_every_time_and_a_bad_suffix_is_exit_2(tmp_pa
     assert main(["falsify", str(ISLAND), "--budget", "8", "--plot", str(tmp_path / "c.gif"), "--json", str(tmp_path / "c.json")]) == 2
     assert ".svg, .png or .html" in capsys.readouterr().err
     assert not (tmp_path / "c.json").exists()
+
+
+def test_the_benchmark_runs() -> None:
+    """benchmarks/falsify.py keeps working against the current core (speed is not checked here)."""
+    sys.path.insert(0, str(ROOT))
+    from benchmarks import falsify as bench
+
+    row = bench.search_case("island_2d", "auto", 2, 150)
+    assert row["found"] == 2 and row["median"] <= 150 and row["boundary_points"] >= 2
+    assert row["boundary_max"] <= 1.0  # within the declared resolution of the ellipse

@@ -19,15 +19,14 @@ import signal
 from dataclasses import dataclass
 from typing import Iterable, Union
 
+from .text import MAX_MESSAGE, shorten
+
 __all__ = ["Problem", "InvalidTestCase", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
 
 PathPart = Union[str, int]
 
 MAX_PROBLEMS = 100
 """Problems printed per file; the rest are counted in one ``… and N more problems`` line."""
-
-MAX_MESSAGE = 200
-"""A problem's message is shortened (its middle cut out) to about this many characters."""
 
 MAX_LINE = 400
 """Any printed line (a problem with its file name and pointer, a summary row) is cut to this length."""
@@ -45,14 +44,6 @@ def _escape(match: re.Match[str]) -> str:
     if 0xDC80 <= code <= 0xDCFF:  # a byte os.fsdecode could not decode (surrogateescape)
         return f"\\x{code - 0xDC00:02x}"
     return f"\\x{code:02x}" if code < 256 else f"\\u{code:04x}"
-
-
-def shorten(text: str, limit: int = MAX_MESSAGE) -> str:
-    """*text* cut in the middle to *limit* characters (the end usually says why)."""
-    if len(text) <= limit:
-        return text
-    half = limit // 2
-    return text[:half] + "…" + text[-(limit - half - 1) :]
 
 
 def printable(text: str, *, limit: int | None = None, keep_newlines: bool = False) -> str:

@@ -28,7 +28,6 @@ stages above, so every error message comes from them.
 
 from __future__ import annotations
 
-import difflib
 import json
 import math
 import os
@@ -49,6 +48,7 @@ from .overlap import overlapping_writes
 from .validation import SchemaValidator
 from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemInfo, SystemSpec
+from .text import MAX_MESSAGE, did_you_mean, shorten
 
 __all__ = ["load", "load_json", "validate", "schema", "schema_for", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE", "MIN_TICK", "MAX_WORK",
            "work", "check_work", "system_spec"]
@@ -72,9 +72,6 @@ within the budget takes a few minutes at most."""
 
 MAX_NESTING = 100
 """Deepest nesting of arrays/objects accepted (fuzz finding: deeper values crashed error reporting)."""
-
-_MESSAGE_LIMIT = 200
-
 
 def schema_text() -> str:
     """The test-case JSON Schema, as shipped in the package."""
@@ -266,7 +263,7 @@ def parse_json(raw: bytes | str, source: str = "<string>") -> Any:
     except RecursionError:
         raise fail("invalid JSON: nested too deeply") from None
     except ValueError as exc:  # NaN/Infinity, integers with too many digits
-        raise fail(f"invalid JSON: {_short(str(exc))}") from None
+        raise fail(f"invalid JSON: {shorten(str(exc))}") from None
 
 
 # ---------------------------------------------------------------------------
@@ -370,7 +367,7 @@ def _value_problems(data: Any) -> Iterator[Problem]:
             continue
         for key, item in container.items() if isinstance(container, dict) else enumerate(container):
             if isinstance(key, str) and _SURROGATE.search(key):
-                yield Problem(path, f"not valid Unicode: key {ascii(key)[:_MESSAGE_LIMIT]} has a lone surrogate", "json")
+                yield Problem(path, f"not valid Unicode: key {ascii(key)[:MAX_MESSAGE]} has a lone surrogate", "json")
                 continue
             if isinstance(item, (dict, list)):
                 stack.append(((*path, key), item))
@@ -384,15 +381,8 @@ def _value_problems(data: Any) -> Iterator[Problem]:
 # stage 1: shape
 
 
-def _short(text: str) -> str:
-    # Cut the middle, not the end: messages like "'dd…dd' is too long" end with the reason
-    # (fuzz finding: a 10 MB description was reported as just "'ddd…").
-    half = _MESSAGE_LIMIT // 2
-    return text if len(text) <= _MESSAGE_LIMIT else text[:half] + "…" + text[-(half - 1) :]
-
-
 def _shown(value: Any) -> str:
-    return _short(json.dumps(value, ensure_ascii=False) if not isinstance(value, str) else repr(value))
+    return shorten(json.dumps(value, ensure_ascii=False) if not isinstance(value, str) else repr(value))
 
 
 def _resolve(data: Any, path: tuple[PathPart, ...]) -> Any:
@@ -420,8 +410,7 @@ def _described(errors: Iterable[Any], data: Any, prefix: tuple[PathPart, ...] = 
             allowed = sorted(error.schema.get("properties", {}))
             for key in error.instance:
                 if key not in allowed:
-                    hint = difflib.get_close_matches(key, allowed, n=1)
-                    tip = f" (did you mean {hint[0]!r}?)" if hint else f" (allowed: {', '.join(allowed) or 'none'})"
+                    tip = did_you_mean(key, allowed) or f" (allowed: {', '.join(allowed) or 'none'})"
                     yield Problem((*path, key), f"unknown key {_shown(key)}{tip}", cause)
             continue
         if error.schema is False:  # from/to/at on a criterion of another type (if/else branches)
@@ -448,9 +437,9 @@ def _described(errors: Iterable[Any], data: Any, prefix: tuple[PathPart, ...] = 
             yield Problem(path, f"{_shown(error.instance)} is not valid: expected {description}", cause)
             continue
         if keyword == "type" and description:
-            yield Problem(path, f"{_short(error.message)}: expected {description}", cause)
+            yield Problem(path, f"{shorten(error.message)}: expected {description}", cause)
             continue
-        yield Problem(path, _short(error.message), cause)
+        yield Problem(path, shorten(error.message), cause)
 
 
 # ---------------------------------------------------------------------------
@@ -468,18 +457,13 @@ _suggestions = __import__("threading").local()
 def _suggest(word: str, candidates: Iterable[str]) -> str:
     """`` (did you mean 'x'?)`` for the closest of *candidates*, within the document's budget.
 
-    Only candidates of about the same length can be close (difflib's ratio needs it), so the
-    comparison is limited to those.
+    Only candidates of about the same length are compared (:func:`~btgen_pytrees.text.closest`).
     """
     left = getattr(_suggestions, "left", MAX_SUGGESTIONS)
     if left <= 0:
         return ""
     _suggestions.left = left - 1
-    size = len(word)
-    slack = max(3, size // 2)
-    near = [c for c in candidates if abs(len(c) - size) <= slack]
-    hint = difflib.get_close_matches(word, near, n=1)
-    return f" (did you mean {hint[0]!r}?)" if hint else ""
+    return did_you_mean(word, candidates, similar_length=True)
 
 
 class _Checker:

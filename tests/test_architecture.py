@@ -28,6 +28,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / PACKAGE_NAME
 #: package's own name, which stands for its ``__init__`` only: a new module needs a line here.
 LAYERS: dict[str, int] = {
     # L0: the vocabulary every step speaks
+    "btgen_pytrees.text": 0,
     "btgen_pytrees.errors": 0,
     "btgen_pytrees.expressions": 0,
     "btgen_pytrees.clock": 0,

@@ -10,18 +10,16 @@ path and the cause ``parameter`` (``limit`` for the count).
 
 from __future__ import annotations
 
-import difflib
 import math
 from functools import lru_cache
-from typing import Any, Iterable, Iterator, Mapping
+from typing import Any, Iterator, Mapping
 
 from ..errors import PathPart, Problem
+from ..text import did_you_mean, shorten
 from ..validation import SchemaValidator
 from .variations import BLOCK_KEYS, RANGE_EPSILON, Variations, format_value
 
 __all__ = ["shape_problems", "meaning_problems", "count_problem", "collision_problems", "axis_size"]
-
-_MESSAGE_LIMIT = 200
 
 
 @lru_cache(maxsize=1)
@@ -33,10 +31,6 @@ def _validator() -> SchemaValidator:
     return SchemaValidator(inline_refs(blocks, root))
 
 
-def _short(text: str) -> str:
-    return text if len(text) <= _MESSAGE_LIMIT else text[: _MESSAGE_LIMIT - 1] + "…"
-
-
 def shape_problems(doc: Mapping[str, Any]) -> list[Problem]:
     """Schema problems of the three blocks (``search`` is falsify's; the rest of the document is checked after substitution)."""
     blocks = {k: doc[k] for k in ("parameters", "variations", "search") if k in doc}
@@ -46,11 +40,11 @@ def shape_problems(doc: Mapping[str, Any]) -> list[Problem]:
         description = error.schema.get("description") if isinstance(error.schema, dict) else None
         if error.validator in ("not", "pattern") and isinstance(error.instance, str) and path[:1] == ("parameters",):
             # propertyNames: jsonschema points at the object; point at the bad key
-            problems.append(Problem((*path, error.instance), _short(f"{error.instance!r} is not valid: expected {description}"), "parameter"))
+            problems.append(Problem((*path, error.instance), shorten(f"{error.instance!r} is not valid: expected {description}", keep_end=False), "parameter"))
         elif error.validator == "anyOf" and description:
-            problems.append(Problem(path, _short(f"not valid: expected {description}"), "parameter"))
+            problems.append(Problem(path, shorten(f"not valid: expected {description}", keep_end=False), "parameter"))
         else:
-            problems.append(Problem(path, _short(error.message), "parameter"))
+            problems.append(Problem(path, shorten(error.message, keep_end=False), "parameter"))
     return list(dict.fromkeys(problems))
 
 
@@ -62,11 +56,6 @@ def axis_size(spec: Any) -> float:
         return 1
     steps = (spec["to"] - spec["from"]) / spec["step"]
     return math.floor(steps + RANGE_EPSILON) + 1 if math.isfinite(steps) else math.inf
-
-
-def _suggest(word: str, candidates: Iterable[str]) -> str:
-    hint = difflib.get_close_matches(word, list(candidates), n=1)
-    return f" (did you mean {hint[0]!r}?)" if hint else ""
 
 
 def meaning_problems(doc: Mapping[str, Any], used: set[str]) -> Iterator[Problem]:
@@ -85,7 +74,7 @@ def meaning_problems(doc: Mapping[str, Any], used: set[str]) -> Iterator[Problem
     for name, spec in axes.items():
         path: tuple[PathPart, ...] = ("variations", name)
         if name not in declared:
-            yield Problem(path, f"{name!r} is not a declared parameter{_suggest(name, declared)}; "
+            yield Problem(path, f"{name!r} is not a declared parameter{did_you_mean(name, declared)}; "
                                 f"declare it with its default under 'parameters'", "parameter")  # fmt: skip
             continue
         if name not in used:

@@ -34,12 +34,12 @@ is the loader's "True is not of type 'number'" at ``/execute/0/params/duration``
 
 from __future__ import annotations
 
-import difflib
 import re
 from dataclasses import dataclass
 from typing import Any, Iterator, Mapping
 
 from ..errors import PathPart, Problem
+from ..text import closest
 from .variations import Value, format_value
 
 __all__ = ["Site", "find_sites", "substitute", "REFERENCE"]
@@ -121,8 +121,8 @@ def find_sites(doc: Mapping[str, Any], declared: Mapping[str, Any]) -> tuple[lis
         if not names:
             continue
         for name in dict.fromkeys(n for n in names if n != "$" and n not in declared):
-            hint = difflib.get_close_matches(name, list(declared), n=1)
-            tip = f" (did you mean '${hint[0]}'?)" if hint else (
+            hint = closest(name, declared)
+            tip = f" (did you mean '${hint}'?)" if hint is not None else (
                 f" (declared: {', '.join('$' + d for d in declared)})" if declared else " (no parameters are declared)")
             problems.append(Problem(path, f"undeclared parameter '${name}'{tip}", "parameter"))
         sites.append(Site(path, text, typed and _WHOLE.fullmatch(text) is not None))

@@ -15,11 +15,11 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
-from difflib import get_close_matches
 from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping
 
 from ...errors import Problem
 from ...expressions import RESERVED
+from ...text import did_you_mean
 from ..base import SystemFailure, SystemInfo, SystemSpec
 from . import actions
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
@@ -51,11 +51,6 @@ def libsumo_installed() -> bool:
 def signal_vehicles(vehicles: Iterable[str]) -> list[str]:
     """Those vehicle ids that can be read in expressions (``ego.speed``): names, not ``sim``, not reserved."""
     return [v for v in vehicles if _NAME.match(v) and v != "sim" and v not in RESERVED]
-
-
-def _suggest(word: str, candidates: Iterable[str]) -> str:
-    hint = get_close_matches(word, sorted(candidates), n=1)
-    return f" (did you mean {hint[0]!r}?)" if hint else ""
 
 
 def _sumo_entries(case_data: Mapping[str, Any]) -> Iterator[tuple[int, str, Mapping[str, Any]]]:
@@ -97,7 +92,7 @@ class SumoType:
             if action != "spawn" and isinstance(vid, str) and vid not in scenario.vehicles and vid not in spawned:
                 known = [*scenario.vehicles, *spawned]
                 problems.append(Problem(("execute", i, "params", "vehicle"),
-                                        f"unknown vehicle {vid!r}{_suggest(vid, known)}", "system"))  # fmt: skip
+                                        f"unknown vehicle {vid!r}{did_you_mean(vid, known)}", "system"))  # fmt: skip
         vehicles = signal_vehicles([*scenario.vehicles, *spawned])
         signals = [f"{v}.{a}" for v in vehicles for a in ATTRIBUTES] + list(SIM_SIGNALS)
         writers = {f"{v}.{a}": w for v in vehicles for a, w in (("speed", "sumo.speed"), ("lane", "sumo.lane"))}
@@ -123,9 +118,9 @@ class SumoType:
                 else:
                     spawned[vid] = i
             if isinstance(route, str) and route not in scenario.routes:
-                bad("route", f"unknown route {route!r}{_suggest(route, scenario.routes)}")
+                bad("route", f"unknown route {route!r}{did_you_mean(route, scenario.routes)}")
             if isinstance(vtype, str) and vtype not in scenario.types:
-                bad("type", f"unknown vehicle type {vtype!r}{_suggest(vtype, scenario.types)}")
+                bad("type", f"unknown vehicle type {vtype!r}{did_you_mean(vtype, scenario.types)}")
             edge = scenario.route_edges.get(route) if isinstance(route, str) else None
             if isinstance(lane, int) and edge is not None and lane >= scenario.lanes.get(edge, 0):
                 bad("lane", f"lane {lane} does not exist: edge {edge!r} has {scenario.lanes.get(edge, 0)} lane(s)")
@@ -136,7 +131,7 @@ class SumoType:
         elif action == "signal":
             tls, state = params.get("tls"), params.get("state")
             if isinstance(tls, str) and tls not in scenario.signals:
-                bad("tls", f"unknown traffic light {tls!r}{_suggest(tls, scenario.signals)}"
+                bad("tls", f"unknown traffic light {tls!r}{did_you_mean(tls, scenario.signals)}"
                     + ("" if scenario.signals else " (the network has none)"))  # fmt: skip
             elif isinstance(tls, str) and isinstance(state, str) and len(state) != scenario.signals[tls]:
                 bad("state", f"traffic light {tls!r} controls {scenario.signals[tls]} links; "

@@ -33,6 +33,8 @@ import xml.parsers.expat
 from dataclasses import dataclass, field
 from typing import Callable, Iterator, Mapping
 
+from ...text import closest
+
 __all__ = ["Scenario", "ScenarioError", "read_scenario", "OPTIONS", "parse_options", "MAX_XML_BYTES"]
 
 MAX_XML_BYTES = 64 * 1024 * 1024
@@ -164,10 +166,8 @@ def parse_options(options: tuple[str, ...] | list[str]) -> tuple[dict[str, str],
             continue
         name, eq, value = item[2:].partition("=")
         if name not in OPTIONS:
-            from difflib import get_close_matches
-
-            hint = get_close_matches(name, list(OPTIONS), n=1)
-            tip = f" (did you mean '--{hint[0]}'?)" if hint else " (see the allow-list in docs/sumo.md)"
+            hint = closest(name, OPTIONS)
+            tip = f" (did you mean '--{hint}'?)" if hint is not None else " (see the allow-list in docs/sumo.md)"
             problems.append((i, f"option {'--' + name!r} is not allowed for SUMO cases{tip}"))
             i += 1 if eq else 2
             continue

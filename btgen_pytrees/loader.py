@@ -47,6 +47,7 @@ from .leaves.registry import LeafType
 from .overlap import overlapping_writes
 from .validation import SchemaValidator
 from .model import EMPTY, Criterion, Entry, TestCase
+from .order import is_acyclic
 from .systems.base import SystemInfo, SystemSpec
 from .text import MAX_MESSAGE, did_you_mean, shorten
 
@@ -742,7 +743,7 @@ class _Checker:
         return out
 
     def cycles(self, entries: list[Entry]) -> None:
-        if _acyclic(entries):  # the common case, without building a graph
+        if is_acyclic({e.id: e.after for e in entries}):  # the common case, without building a graph
             return
         graph = nx.DiGraph()
         graph.add_nodes_from(e.id for e in entries)
@@ -761,33 +762,6 @@ class _Checker:
             k = index[first].after.index(pred)
             shown = " -> ".join(cycle)
             self.add(("execute", index[first].index, "after", k), f"cycle: {shown}", "graph")
-
-
-def _acyclic(entries: list[Entry]) -> bool:
-    """Kahn's algorithm over plain dicts: can every entry be ordered after its predecessors?
-
-    First, in one pass, the usual case: every ``after`` names an entry above it.
-    A quick yes/no for the common, valid case; networkx describes the cycles when
-    there are some (see :meth:`_Checker.cycles`).
-    """
-    index = {e.id: e.index for e in entries}
-    if all(index[p] < e.index for e in entries for p in e.after):
-        return True  # every entry names only entries above it: file order is an order
-    waiting = {e.id: len(e.after) for e in entries}
-    successors: dict[str, list[str]] = {}
-    for e in entries:
-        for p in e.after:
-            successors.setdefault(p, []).append(e.id)
-    ready = [v for v, n in waiting.items() if n == 0]
-    ordered = 0
-    while ready:
-        v = ready.pop()
-        ordered += 1
-        for s in successors.get(v, ()):
-            waiting[s] -= 1
-            if waiting[s] == 0:
-                ready.append(s)
-    return ordered == len(entries)
 
 
 def _cycle_through(graph: nx.DiGraph, start: str) -> list[str]:

@@ -56,7 +56,6 @@ from typing import Any, Callable, Iterable, Iterator, Mapping
 from .leaves import Registry
 from .leaves.registry import LeafType
 from .loader import (
-    _acyclic,
     _case,
     _Checker,
     _frozen,
@@ -68,6 +67,7 @@ from .loader import (
     inline_refs,
     schema,
 )
+from .order import is_acyclic
 from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemSpec
 from .systems.simulated import SIMULATED
@@ -447,7 +447,7 @@ class _Builder:
         if checker.problems:
             return None
         done: list[Entry] = entries  # type: ignore[assignment]
-        if self.forward and not _acyclic(done):
+        if self.forward and not is_acyclic({e.id: e.after for e in done}):
             return None
         return _case(data, done, criteria, checker.spec, self.registry, source)
 

@@ -36,11 +36,12 @@ each action declares as ``signals`` when it is registered (``set.signal`` and
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from typing import Sequence
 
 from .errors import Problem
 from .leaves import Registry
 from .model import Entry, TestCase
+from .order import positions
 
 __all__ = ["overlapping_writes", "warning_lines", "NEAREST"]
 
@@ -82,7 +83,8 @@ def overlapping_writes(entries: Sequence[Entry], registry: Registry) -> list[Pro
     if not shared:
         return []
     by_id = {e.id: e for e in entries}
-    position = _topological_positions(entries)
+    position = positions({e.id: e.after for e in entries})
+    assert position is not None  # a valid case has no cycle
     warnings = []
     budget = [BUDGET_PER_ENTRY * len(by_id) + BUDGET_BASE]  # nodes the searches may still visit
 
@@ -114,25 +116,6 @@ def overlapping_writes(entries: Sequence[Entry], registry: Registry) -> list[Pro
             ))  # fmt: skip
     warnings.sort(key=lambda w: (w.path[1], w.message))
     return warnings
-
-
-def _topological_positions(entries: Iterable[Entry]) -> dict[str, int]:
-    entries = list(entries)
-    waiting = {e.id: len(e.after) for e in entries}
-    successors: dict[str, list[str]] = {}
-    for e in entries:
-        for p in e.after:
-            successors.setdefault(p, []).append(e.id)
-    ready = [e.id for e in entries if not e.after]
-    position: dict[str, int] = {}
-    while ready:
-        v = ready.pop()
-        position[v] = len(position)
-        for s in successors.get(v, ()):
-            waiting[s] -= 1
-            if waiting[s] == 0:
-                ready.append(s)
-    return position
 
 
 def _must_finish(a: str, b: str, by_id: dict[str, Entry], position: dict[str, int], budget: list[int]) -> bool:

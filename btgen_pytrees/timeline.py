@@ -22,12 +22,12 @@ for display only.
 
 from __future__ import annotations
 
-from heapq import heappop, heappush
 from typing import Iterator
 
 import networkx as nx
 
 from .model import TestCase
+from .order import order, positions
 
 __all__ = ["timeline", "adjacency_matrix", "topological_order", "topological_positions", "matrix_text", "matrix_lines",
            "DENSE_LIMIT"]
@@ -81,26 +81,10 @@ def topological_order(graph: nx.DiGraph) -> list[str]:
     Raises:
         networkx.NetworkXUnfeasible: the graph has a cycle
     """
-    pred = graph._pred  # the adjacency dicts networkx's views wrap: no view objects per lookup
-    nodes = list(pred)
-    index = {v: i for i, v in enumerate(nodes)}
-    if all(index[p] < i for i, v in enumerate(nodes) for p in pred[v]):
-        return nodes
-    succ = graph._succ
-    waiting = [len(pred[v]) for v in nodes]
-    heap = [i for i, d in enumerate(waiting) if d == 0]
-    order = []
-    while heap:
-        i = heappop(heap)
-        order.append(nodes[i])
-        for s in succ[nodes[i]]:
-            j = index[s]
-            waiting[j] -= 1
-            if not waiting[j]:
-                heappush(heap, j)
-    if len(order) != len(nodes):
+    found = order(graph._pred, graph._succ)  # the adjacency dicts networkx's views wrap: no view objects
+    if found is None:
         raise nx.NetworkXUnfeasible("the timeline has a cycle")
-    return order
+    return found
 
 
 def topological_positions(graph: nx.DiGraph) -> dict[str, int]:
@@ -109,11 +93,10 @@ def topological_positions(graph: nx.DiGraph) -> dict[str, int]:
     Raises:
         networkx.NetworkXUnfeasible: the graph has a cycle
     """
-    pred = graph._pred
-    index = {v: i for i, v in enumerate(pred)}
-    if all(index[p] < i for i, preds in enumerate(pred.values()) for p in preds):
-        return index  # the usual case, in one pass: no second dict
-    return {v: i for i, v in enumerate(topological_order(graph))}
+    found = positions(graph._pred, graph._succ)
+    if found is None:
+        raise nx.NetworkXUnfeasible("the timeline has a cycle")
+    return found
 
 
 def adjacency_matrix(graph: nx.DiGraph) -> list[list[int]]:

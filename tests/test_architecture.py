@@ -29,6 +29,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / PACKAGE_NAME
 LAYERS: dict[str, int] = {
     # L0: the vocabulary every step speaks
     "btgen_pytrees.text": 0,
+    "btgen_pytrees.order": 0,
     "btgen_pytrees.errors": 0,
     "btgen_pytrees.expressions": 0,
     "btgen_pytrees.clock": 0,
@@ -280,7 +281,6 @@ KNOWN_PRIVATE: set[tuple[str, str, str]] = {
     ('btgen_pytrees.construct.tree', 'btgen_pytrees.timeline', '_graph'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_Checker'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_SURROGATE'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_acyclic'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_case'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_frozen'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_no_duplicates'),

@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from btgen_pytrees.timeline import topological_order
+from btgen_pytrees.order import is_acyclic, order, positions
+from btgen_pytrees.timeline import topological_order, topological_positions
 
 
 @st.composite
@@ -35,3 +36,20 @@ def test_a_cycle_is_refused() -> None:
     graph = nx.DiGraph([("A", "B"), ("B", "A"), ("C", "A")])
     with pytest.raises(nx.NetworkXUnfeasible):
         topological_order(graph)
+
+
+@settings(max_examples=300, deadline=None)
+@given(dags())
+def test_order_over_after_lists_is_the_same(graph: nx.DiGraph) -> None:
+    """btgen_pytrees.order over plain after-lists (what the loader and the overlap warnings pass) agrees."""
+    after = {v: tuple(graph.predecessors(v)) for v in graph}
+    expected = topological_order(graph)
+    assert order(after) == expected
+    assert positions(after) == {v: i for i, v in enumerate(expected)} == topological_positions(graph)
+    assert is_acyclic(after)
+
+
+def test_a_cycle_has_no_order() -> None:
+    after = {"C": (), "A": ("B", "C"), "B": ("A",)}
+    assert order(after) is None and positions(after) is None and not is_acyclic(after)
+    assert is_acyclic({"A": (), "B": ("A",)}) and positions({"B": ("A",), "A": ()}) == {"A": 0, "B": 1}

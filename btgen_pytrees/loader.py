@@ -46,7 +46,7 @@ from .leaves import Registry, default_registry
 from .leaves.registry import LeafType
 from .overlap import overlapping_writes
 from .validation import SchemaValidator
-from .model import EMPTY, Criterion, Entry, TestCase
+from .model import DEFAULT_JOIN, DEFAULT_TICK, DEFAULT_TIMEOUT, EMPTY, Criterion, Entry, TestCase
 from .order import is_acyclic
 from .systems.base import SystemInfo, SystemSpec
 from .text import MAX_MESSAGE, did_you_mean, shorten
@@ -552,7 +552,7 @@ class _Checker:
                 self.add(("signals", name), f"{name!r} is a reserved word of expressions", "signal")
 
     def check_limits(self) -> None:
-        tick, timeout = self.data.get("tick", 0.1), self.data.get("timeout", 60)
+        tick, timeout = self.data.get("tick", DEFAULT_TICK), self.data.get("timeout", DEFAULT_TIMEOUT)
         if not (math.isfinite(tick) and math.isfinite(timeout)):
             self.add(("timeout",) if not math.isfinite(timeout) else ("tick",), "must be a finite number", "limit")
         elif tick < MIN_TICK:
@@ -574,7 +574,7 @@ class _Checker:
                     first[item["id"]] = path
         execute_ids = {e["id"] for e in raw_entries}
         criteria_ids = {c["id"] for c in raw_criteria}
-        default_join = self.data.get("join", "any")
+        default_join = self.data.get("join", DEFAULT_JOIN)
         entries = []
         # (kind, action, params) -> the frozen params, for leaves whose check of those params was
         # path-independent and clean: entries sharing params (most: {"duration": 0.1}) are checked
@@ -863,8 +863,7 @@ def _option_problems(options: tuple[str, ...], system_type: Any) -> list[tuple[i
 def work(case: TestCase) -> int:
     """The most work units a run of *case* can take: ``(timeout / tick + 1) x (entries + criteria + 10)``
     (a run that ends before its timeout is charged less; see :data:`MAX_WORK`)."""
-    ticks = int(case.timeout / case.tick + 1e-9) + 1
-    return ticks * (len(case.entries) + len(case.criteria) + 10)
+    return case.ticks * (len(case.entries) + len(case.criteria) + 10)
 
 
 def check_work(case: TestCase, max_work: int = MAX_WORK) -> None:
@@ -933,9 +932,9 @@ def _case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Criterio
         description=data.get("description", ""),
         signals=MappingProxyType(dict(data.get("signals", {}))),
         declares_signals="signals" in data,
-        tick=float(data.get("tick", 0.1)),
-        timeout=float(data.get("timeout", 60)),
-        join=data.get("join", "any"),
+        tick=float(data.get("tick", DEFAULT_TICK)),
+        timeout=float(data.get("timeout", DEFAULT_TIMEOUT)),
+        join=data.get("join", DEFAULT_JOIN),
         entries=tuple(entries),
         criteria=tuple(criteria),
         relation=MappingProxyType({"record": relation.get("record", "&&"), "others": relation.get("others", "&&")}),

@@ -14,12 +14,33 @@ from typing import Any, Mapping
 from .expressions import Expression
 from .systems.base import SystemSpec
 
-__all__ = ["Entry", "Criterion", "TestCase", "label", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES"]
+__all__ = ["Entry", "Criterion", "TestCase", "label", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES", "DEFAULT_TICK",
+           "DEFAULT_TIMEOUT", "DEFAULT_JOIN", "tick_count"]
 
 BEHAVIOR = "behavior"
 CONSTRAINT = "constraint"
 CRITERION_TYPES = ("record", "period", "final")
 EMPTY: Mapping[str, Any] = MappingProxyType({})
+
+DEFAULT_TICK = 0.1
+"""Virtual seconds per tick when a case gives no ``tick``."""
+
+DEFAULT_TIMEOUT = 60.0
+"""Virtual seconds before a run is stopped when a case gives no ``timeout``."""
+
+DEFAULT_JOIN = "any"
+"""The join of an entry with several predecessors when neither it nor the case gives one."""
+
+
+def tick_count(timeout: float, tick: float) -> int:
+    """How many ticks a run that is not stopped earlier takes: at t = 0, tick, 2 tick, ... up to *timeout*.
+
+    (``1e-9`` absorbs the rounding of ``timeout / tick``: 0.3 / 0.1 is 2.9999999999999996.)
+
+    >>> tick_count(60.0, 0.1), tick_count(0.3, 0.1), tick_count(0.0, 0.1)
+    (601, 4, 1)
+    """
+    return int(timeout / tick + 1e-9) + 1
 
 
 def label(id: str, name: str) -> str:
@@ -131,11 +152,16 @@ class TestCase:
     signals: Mapping[str, Any] = field(default_factory=lambda: EMPTY)
     declares_signals: bool = False
     description: str = ""
-    tick: float = 0.1
-    timeout: float = 60.0
-    join: str = "any"
+    tick: float = DEFAULT_TICK
+    timeout: float = DEFAULT_TIMEOUT
+    join: str = DEFAULT_JOIN
     relation: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({"record": "&&", "others": "&&"}))
     source: str = "<dict>"
     system: SystemSpec = SystemSpec()
     require_complete: bool = False
     warnings: tuple[Any, ...] = ()
+
+    @property
+    def ticks(self) -> int:
+        """The ticks of a run that is not stopped earlier (:func:`tick_count`); the last one is at ``timeout``."""
+        return tick_count(self.timeout, self.tick)

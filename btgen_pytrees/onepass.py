@@ -67,8 +67,8 @@ from .loader import (
     inline_refs,
     schema,
 )
+from .model import DEFAULT_JOIN, EMPTY, Criterion, Entry, TestCase
 from .order import is_acyclic
-from .model import EMPTY, Criterion, Entry, TestCase
 from .systems.base import SystemSpec
 from .systems.simulated import SIMULATED
 from .validation import SchemaValidator
@@ -102,7 +102,7 @@ def from_data(data: Any, source: str, registry: Registry, system: SystemSpec | N
     if type(data) is not dict or type(data.get("execute")) is not list:
         return None
     builder = _Builder(registry)
-    builder.default_join = data.get("join", "any")
+    builder.default_join = data.get("join", DEFAULT_JOIN)
     try:
         builder.add_all(data["execute"])
     except (_NotHere, TypeError):  # TypeError: an unhashable item in 'after'
@@ -136,7 +136,7 @@ def _read(text: str, builder: "_Builder") -> dict[str, Any]:
             raise _NotHere
         i = skip(text, i + 1).end()
         if key == "execute" and text[i : i + 1] == "[":
-            builder.default_join = top.get("join", "any")
+            builder.default_join = top.get("join", DEFAULT_JOIN)
             builder.join_known = "join" in top
             start, stop = i, []
             if _SPACED_KEY.search(text, i) is None:  # every key is written "key": - count them instead of hooking
@@ -288,7 +288,7 @@ class _Builder:
         self.entries: list[Entry | None] = []
         self.ids: set[str] = set()
         self.leaves: dict[tuple[str, str], _Leaf] = {}
-        self.default_join: Any = "any"
+        self.default_join: Any = DEFAULT_JOIN
         self.join_known = True  # whether default_join is the document's (a 'join' after 'execute': not yet)
         self.defaulted: list[int] = []  # entries given default_join while it was not known
         self.forward: list[tuple[str, ...]] = []  # 'after' lists naming entries not read yet
@@ -435,7 +435,7 @@ class _Builder:
         if any(not self.ids.issuperset(after) for after in self.forward):
             return None
         entries = self.entries
-        join = data.get("join", "any")
+        join = data.get("join", DEFAULT_JOIN)
         if self.defaulted and join != self.default_join:  # 'join' came after 'execute'
             for i in self.defaulted:
                 if entries[i] is not None:  # (the entries checked below take the document's join themselves)

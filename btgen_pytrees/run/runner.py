@@ -105,7 +105,7 @@ def run_tree(
     env = root.btgen_env  # type: ignore[attr-defined]
     collector = Collector(root, trace=trace, record=True)  # record: report.trace, for --plot/--replay/--btlog
     see = collector.run
-    last = int(case.timeout / case.tick + 1e-9)
+    last = case.ticks - 1
     stop = last if max_work is None else min(last, max_work // work_per_tick(case) - 1)  # the budget's last tick
     saved = env.clock, env.system
     clock = VirtualClock()  # holds the system's time, read once per tick

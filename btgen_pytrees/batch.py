@@ -21,19 +21,19 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterable, Sequence, TextIO
 
-from .errors import MAX_LINE, Interrupt, is_interrupt, printable, shorten, xml_safe
+from .errors import MAX_LINE, ExitCode, Interrupt, is_interrupt, printable, shorten, xml_safe
 from .overlap import warning_lines
 
 __all__ = ["Outcome", "Interrupted", "expand", "output_names", "process", "summary", "job_validate", "job_show",
            "job_run", "EXIT_ERROR", "NOT_RUN"]  # fmt: skip
 
-EXIT_ERROR = 1
+EXIT_ERROR = ExitCode.FAIL
 """Code of a file whose user code (plugin, factory, leaf) raised or killed its worker: like a run's verdict ``error``."""
 
-NOT_RUN = 130
+NOT_RUN = ExitCode.INTERRUPTED
 """Code of a file a Ctrl-C left unprocessed."""
 
-WORDS = {0: "ok", 1: "FAIL", 2: "INVALID", 3: "ERROR"}
+WORDS = {ExitCode.OK: "ok", ExitCode.FAIL: "FAIL", ExitCode.INVALID: "INVALID", ExitCode.INTERNAL: "ERROR"}
 
 
 @dataclass
@@ -157,11 +157,11 @@ def _guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
         return job(path, *args)
     except InvalidTestCase as error:
         lines = [p.render(error.source) for p in error.problems]
-        return Outcome(path, 2, f"invalid ({len(lines)} problem{'s' if len(lines) != 1 else ''})", _capped(lines))
+        return Outcome(path, ExitCode.INVALID, f"invalid ({len(lines)} problem{'s' if len(lines) != 1 else ''})", _capped(lines))
     except (PluginError, FactoryError, GraphvizMissing) as error:
-        return Outcome(path, 2, str(error).splitlines()[0], [f"{path}: {error}"])
+        return Outcome(path, ExitCode.INVALID, str(error).splitlines()[0], [f"{path}: {error}"])
     except Exception as exc:  # noqa: BLE001 - one bad file must not stop the batch
-        return Outcome(path, 3, f"internal error: {type(exc).__name__}: {exc}")
+        return Outcome(path, ExitCode.INTERNAL, f"internal error: {type(exc).__name__}: {exc}")
     except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt from user code
         if is_interrupt(exc):
             raise
@@ -191,7 +191,7 @@ def job_validate(path: str, plugins: Sequence[str], max_variations: int | None =
     if has_variations(data):  # a sweep: every variation is checked
         limit = max_variations if max_variations is not None else MAX_VARIATIONS
         found += f", {load_sweep(data, registry=registry, max_variations=limit, source_name=path).count} variations"
-    return Outcome(path, 0, found, problems=warning_lines(case))
+    return Outcome(path, ExitCode.OK, found, problems=warning_lines(case))
 
 
 def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None,
@@ -207,8 +207,8 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
     case = load(path, registry=registry)
     text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=max_depth, indent=indent)
     if target is None:
-        return Outcome(path, 0, fmt, outputs=[("-", text)], problems=warning_lines(case))
-    return Outcome(path, 0, fmt, outputs=[(target, text)], problems=warning_lines(case))
+        return Outcome(path, ExitCode.OK, fmt, outputs=[("-", text)], problems=warning_lines(case))
+    return Outcome(path, ExitCode.OK, fmt, outputs=[(target, text)], problems=warning_lines(case))
 
 
 def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
@@ -249,7 +249,7 @@ def run_case(path: str, case: Any, registry: Any, target: str | None, plot: str 
             outputs.append((f"{target}.{plot}", plot_bytes(report, case, plot)))
     line = f"{report.verdict} after {report.duration:g} s" + (f": {report.message}" if report.message else "")
     word = "" if report.verdict in ("pass", "fail") else report.verdict.upper()
-    outcome = Outcome(path, 0 if report.passed else 1, line, result=word, outputs=outputs, problems=warning_lines(case))
+    outcome = Outcome(path, ExitCode.OK if report.passed else ExitCode.FAIL, line, result=word, outputs=outputs, problems=warning_lines(case))
     if junit:
         outcome.junit = report.to_junit()
     return outcome
@@ -394,7 +394,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
             try:
                 for i, result in stream:
                     ok = isinstance(result, Outcome)
-                    results[i] = result if ok else Outcome(paths[i], 3, f"internal error: {result}")
+                    results[i] = result if ok else Outcome(paths[i], ExitCode.INTERNAL, f"internal error: {result}")
                     if on_result is not None:
                         on_result(results[i])  # type: ignore[arg-type]
                     done += 1

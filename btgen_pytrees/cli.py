@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, NoReturn, Sequence, T
 from . import __version__
 from . import batch
 from .construct import generate
-from .errors import MAX_PROBLEMS, Interrupt, InvalidTestCase, Problem, printable
+from .errors import MAX_PROBLEMS, ExitCode, Interrupt, InvalidTestCase, Problem, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
 from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
@@ -41,7 +41,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["main", "MAX_JOBS"]
 
-EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
+EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = ExitCode.OK, ExitCode.FAIL, ExitCode.INVALID, ExitCode.INTERNAL
 COMMANDS = ("show", "validate", "run", "expand", "falsify", "schema")
 
 MAX_JOBS = 64

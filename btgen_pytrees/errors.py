@@ -14,6 +14,7 @@ The CLI renders each as ``FILE: /json/pointer: message``.
 
 from __future__ import annotations
 
+import enum
 import re
 import signal
 from dataclasses import dataclass
@@ -21,9 +22,30 @@ from typing import Iterable, Union
 
 from .text import MAX_MESSAGE, shorten
 
-__all__ = ["Problem", "InvalidTestCase", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
+__all__ = ["Problem", "InvalidTestCase", "ExitCode", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
 
 PathPart = Union[str, int]
+
+
+class ExitCode(enum.IntEnum):
+    """The exit codes of the command line, and the code of each file of a batch (the worst one wins).
+
+    docs/limits.md says what each one means. They print as their numbers (``str``, f-strings, JSON).
+    """
+
+    OK = 0
+    """Success (``run``: every test passed)."""
+    FAIL = 1
+    """A run failed, timed out or ended in ``error`` (user code raised, or killed its worker)."""
+    INVALID = 2
+    """Invalid input, an unusable plugin or factory, or a usage error."""
+    INTERNAL = 3
+    """An internal error of btgen_pytrees itself."""
+    INTERRUPTED = 130
+    """Stopped by Ctrl-C (128 + SIGINT); in a batch, a file that was not run."""
+
+    def __str__(self) -> str:  # Python 3.10 would print "ExitCode.FAIL"
+        return str(self.value)
 
 MAX_PROBLEMS = 100
 """Problems printed per file; the rest are counted in one ``… and N more problems`` line."""

@@ -21,7 +21,7 @@ from typing import Any, Callable, Mapping, Sequence
 from .. import batch
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
-from ..errors import InvalidTestCase, Problem
+from ..errors import ExitCode, InvalidTestCase, Problem
 from ..loader import parse_json, system_spec
 from ..output import commit, write_file
 from ..systems.base import SystemSpec
@@ -32,7 +32,7 @@ from .shipping import Files, ShippingError, read_files
 
 __all__ = ["run_sweep", "run_variations", "dask_batch_args", "cmd_expand", "file_name", "make_executor", "sweep_report", "Refused"]
 
-EXIT_OK, EXIT_FAIL, EXIT_INVALID = 0, 1, 2
+EXIT_OK, EXIT_FAIL, EXIT_INVALID = ExitCode.OK, ExitCode.FAIL, ExitCode.INVALID
 _UNSAFE = re.compile(r"[^A-Za-z0-9._=,+\-\[\]]")
 _MAX_NAME = 200
 
@@ -273,8 +273,8 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
     sys.stdout.write(report.summary())
     if executor is not None and executor.lost:
         print(f"btgen_pytrees: {executor.lost}; the rest are reported as errors", file=sys.stderr)
-    if any(o.code == 3 for o in outcomes):
-        return 3
+    if any(o.code == ExitCode.INTERNAL for o in outcomes):
+        return ExitCode.INTERNAL
     return EXIT_OK if report.passed else EXIT_FAIL
 
 

@@ -21,6 +21,7 @@ from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
 from ..batch import Outcome
+from ..errors import ExitCode
 from ..leaves import Registry
 from ..leaves.plugins import is_path
 from ..systems.base import SystemSpec
@@ -114,7 +115,7 @@ def job_variation(label: str, options: RunOptions, source: str, document: Mappin
     report = run(case, registry=registry, require_complete=options.require_complete or None, max_work=budget)
     row = row_of(report)
     line = f"{report.verdict} after {report.duration:g} s" + (f": {row['message']}" if row["message"] else "")
-    return VariationOutcome(label, 0 if report.passed else 1, line, row=row)
+    return VariationOutcome(label, ExitCode.OK if report.passed else ExitCode.FAIL, line, row=row)
 
 
 def job_run_shipped(path: str, options: RunOptions, raw: bytes | None, problems: Sequence[Any],

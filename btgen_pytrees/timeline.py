@@ -33,13 +33,9 @@ __all__ = ["timeline", "adjacency_matrix", "topological_order", "topological_pos
            "DENSE_LIMIT"]
 
 
-def timeline(case: TestCase) -> nx.DiGraph:
-    """The DiGraph of *case*'s execute entries (edges pred → succ, in file order)."""
-    return _graph(case, attributes=True)
-
-
-def _graph(case: TestCase, attributes: bool) -> nx.DiGraph:
-    """:func:`timeline`; without *attributes*, each node's attribute dict is empty.
+def timeline(case: TestCase, attributes: bool = True) -> nx.DiGraph:
+    """The DiGraph of *case*'s execute entries (edges pred → succ, in file order), each node's entry
+    in its ``entry`` attribute; without *attributes*, each node's attribute dict is empty.
 
     :func:`~btgen_pytrees.construct.generate` walks a graph of its own and takes the
     entries from the case: an empty dict is one object the garbage collector does not

@@ -277,8 +277,6 @@ KNOWN_FUNCTION_LEVEL: set[tuple[str, str]] = {
     ('btgen_pytrees.sweep.plot', 'btgen_pytrees.run.plot'),
 }
 KNOWN_PRIVATE: set[tuple[str, str, str]] = {
-    ('btgen_pytrees.construct.tree', 'btgen_pytrees.construct.execute', '_walk_consuming'),
-    ('btgen_pytrees.construct.tree', 'btgen_pytrees.timeline', '_graph'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_Checker'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_SURROGATE'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_case'),

@@ -53,3 +53,16 @@ def test_a_cycle_has_no_order() -> None:
     after = {"C": (), "A": ("B", "C"), "B": ("A",)}
     assert order(after) is None and positions(after) is None and not is_acyclic(after)
     assert is_acyclic({"A": (), "B": ("A",)}) and positions({"B": ("A",), "A": ()}) == {"A": 0, "B": 1}
+
+
+def test_timeline_with_and_without_the_entries() -> None:
+    from btgen_pytrees import load
+    from btgen_pytrees.timeline import timeline
+
+    case = load({"name": "t", "execute": [
+        {"id": "A", "kind": "behavior", "action": "set", "params": {"signal": "x", "value": 1}},
+        {"id": "B", "kind": "behavior", "action": "set", "params": {"signal": "x", "value": 2}, "after": ["A"]},
+    ]})
+    full, bare = timeline(case), timeline(case, attributes=False)
+    assert list(full.edges) == list(bare.edges) == [("A", "B")]
+    assert full.nodes["B"]["entry"] is case.entries[1] and bare.nodes["B"] == {}

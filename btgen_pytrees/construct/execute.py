@@ -47,7 +47,7 @@ from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
 from ..model import Entry
 from ..timeline import topological_positions
 
-__all__ = ["execute_subtree", "MAX_DEPTH", "EXECUTE_DEPTH"]
+__all__ = ["execute_subtree", "walk_consuming", "MAX_DEPTH", "EXECUTE_DEPTH"]
 
 MAX_DEPTH = 100
 """Deepest level any generated node may sit at (the generated root is level 1)."""
@@ -276,8 +276,8 @@ def execute_subtree(
     return _Walk(graph, env, registry, depth, max_depth, consume).build()
 
 
-def _walk_consuming(graph: nx.DiGraph, entries: Mapping[str, Entry], env: Environment, registry: Registry, *,
-                    depth: int, max_depth: int) -> Parallel:  # fmt: skip
+def walk_consuming(graph: nx.DiGraph, entries: Mapping[str, Entry], env: Environment, registry: Registry, *,
+                   depth: int, max_depth: int) -> Parallel:  # fmt: skip
     """:func:`execute_subtree` with ``consume=True`` over a graph built without node attributes
     (:func:`~.tree.generate`'s own), the entries given by id instead."""
     if max_depth < depth + 8:

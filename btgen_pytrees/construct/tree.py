@@ -25,8 +25,8 @@ from ..clock import Clock
 from ..leaves import Environment, Registry, default_registry, unique_namespace
 from ..leaves.wiring import EXECUTE, Completion, TreeRoot
 from ..model import TestCase
-from ..timeline import _graph
-from .execute import EXECUTE_DEPTH, MAX_DEPTH, _walk_consuming
+from ..timeline import timeline
+from .execute import EXECUTE_DEPTH, MAX_DEPTH, walk_consuming
 from .oracle import oracle_subtree
 
 __all__ = ["generate"]
@@ -58,10 +58,10 @@ def generate(
     """
     registry = registry if registry is not None else default_registry()
     env = Environment(namespace or unique_namespace(case.name), clock, case.signals)
-    graph = _graph(case, attributes=False)  # the timeline; the walk takes each node's entry from the case
+    graph = timeline(case, attributes=False)  # the timeline; the walk takes each node's entry from the case
     try:
         entries = {e.id: e for e in case.entries}
-        walked = _walk_consuming(graph, entries, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth)
+        walked = walk_consuming(graph, entries, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth)
     finally:
         graph.clear()  # networkx caches views that refer back to the graph: free it now, not at the next gc
     execute = Completion(walked, env, marks=EXECUTE, name="execute")

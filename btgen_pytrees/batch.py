@@ -21,10 +21,16 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterable, Sequence, TextIO
 
-from .errors import MAX_LINE, ExitCode, Interrupt, is_interrupt, printable, shorten, xml_safe
+from .construct import generate
+from .errors import MAX_LINE, MAX_PROBLEMS, ExitCode, Interrupt, InvalidTestCase, is_interrupt, printable, shorten, xml_safe
+from .leaves import FactoryError, PluginError, default_registry
+from .loader import MAX_WORK, check_work, load, load_json, validate
 from .overlap import warning_lines
+from .render import GraphvizMissing, render
+from .sweep import MAX_VARIATIONS, has_variations, load_sweep
+from .timeline import timeline
 
-__all__ = ["Outcome", "Interrupted", "expand", "output_names", "process", "summary", "job_validate", "job_show",
+__all__ = ["Outcome", "Interrupted", "guard", "expand", "output_names", "process", "summary", "job_validate", "job_show",
            "job_run", "EXIT_ERROR", "NOT_RUN"]  # fmt: skip
 
 EXIT_ERROR = ExitCode.FAIL
@@ -141,7 +147,7 @@ def _safe_stem(path: str) -> str:
     return stem if stem not in ("", ".", "..") else "case"
 
 
-def _guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
+def guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
     """Run *job*, turning every exception into the file's outcome (never raise).
 
     Invalid input is code 2. Anything user code raises - ``SystemExit`` and
@@ -149,10 +155,6 @@ def _guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
     plugin, a factory or a leaf - is this file's error (code 1); it never ends
     the batch or sets the CLI's exit code.
     """
-    from .errors import InvalidTestCase
-    from .leaves import FactoryError, PluginError
-    from .render import GraphvizMissing
-
     try:
         return job(path, *args)
     except InvalidTestCase as error:
@@ -171,8 +173,6 @@ def _guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
 
 def _capped(lines: list[str], limit: int | None = None) -> list[str]:
     """The first *limit* lines, then one ``… and N more problems`` line."""
-    from .errors import MAX_PROBLEMS
-
     limit = MAX_PROBLEMS if limit is None else limit
     if len(lines) <= limit:
         return lines
@@ -180,10 +180,6 @@ def _capped(lines: list[str], limit: int | None = None) -> list[str]:
 
 
 def job_validate(path: str, plugins: Sequence[str], max_variations: int | None = None) -> Outcome:
-    from .leaves import default_registry
-    from .loader import load_json, validate
-    from .sweep import MAX_VARIATIONS, has_variations, load_sweep
-
     registry = default_registry(plugins)
     data = load_json(path)
     case = validate(data, path, registry)
@@ -197,12 +193,6 @@ def job_validate(path: str, plugins: Sequence[str], max_variations: int | None =
 def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None,
              indent: int | None | str = "auto") -> Outcome:  # fmt: skip
     """Render one tree; with a *target* it is an output to write, else the text to print (*indent*: json only)."""
-    from .construct import generate
-    from .leaves import default_registry
-    from .loader import load
-    from .render import render
-    from .timeline import timeline
-
     registry = default_registry(plugins)
     case = load(path, registry=registry)
     text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=max_depth, indent=indent)
@@ -218,9 +208,6 @@ def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | N
     (``svg``/``png``/``html``), ``<target>.<plot>``. With *junit* the JUnit text also comes back
     (``Outcome.junit``) for one batch-wide file. *system* (a ``SystemSpec``) replaces the case's
     (``run --system``). *max_work* is the work budget (default :data:`~.loader.MAX_WORK`)."""
-    from .leaves import default_registry
-    from .loader import load
-
     registry = default_registry(plugins)
     case = load(path, registry=registry, system=system)
     return run_case(path, case, registry, target, plot, junit, max_work, require_complete)
@@ -234,8 +221,7 @@ def run_case(path: str, case: Any, registry: Any, target: str | None, plot: str 
     local workers, ``job_run_shipped`` on a Dask cluster), so the outputs, the
     summary line, the warnings and ``--require-complete`` are the same wherever it ran.
     """
-    from .loader import MAX_WORK, check_work
-    from .run import run
+    from .run import run  # lazily: the run package is ~120 ms of every command's start-up otherwise
 
     budget = MAX_WORK if max_work is None else max_work
     check_work(case, budget)
@@ -292,7 +278,7 @@ def _worker(conn: Connection) -> None:
             if task is None:
                 return
             index, job, path, args = task
-            conn.send((index, _guard(job, path, *args)))
+            conn.send((index, guard(job, path, *args)))
     except (_Stop, BrokenPipeError):
         return
     finally:  # leaving: a late SIGTERM must end the process quietly, not raise in multiprocessing's exit code
@@ -390,7 +376,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
         if executor is not None:  # another engine (a Dask cluster): the same guarded calls
             from functools import partial as bind
 
-            stream = executor.map_unordered([bind(_guard, job, p, *jobs_args[i]) for i, p in enumerate(paths)])
+            stream = executor.map_unordered([bind(guard, job, p, *jobs_args[i]) for i, p in enumerate(paths)])
             try:
                 for i, result in stream:
                     ok = isinstance(result, Outcome)
@@ -403,7 +389,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                 stream.close()  # stopped early (Ctrl-C): the engine cancels what is left
         elif not isolate:
             for i, path in enumerate(paths):
-                results[i] = _guard(job, path, *jobs_args[i])
+                results[i] = guard(job, path, *jobs_args[i])
                 if on_result is not None:
                     on_result(results[i])  # type: ignore[arg-type]
                 done += 1

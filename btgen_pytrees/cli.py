@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, NoReturn, Sequence, T
 from . import __version__
 from . import batch
 from .construct import generate
-from .errors import MAX_PROBLEMS, ExitCode, Interrupt, InvalidTestCase, Problem, printable
+from .errors import MAX_PROBLEMS, UNSAFE, ExitCode, Interrupt, InvalidTestCase, Problem, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
 from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
@@ -31,7 +31,8 @@ from .render.dot import png_depth
 from .systems import SystemSpec
 from .falsify.command import add_arguments as falsify_arguments, cmd_falsify
 from .sweep.case import has_variations
-from .sweep.command import Refused
+from .sweep.command import Refused, dask_batch_args, run_sweep
+from .sweep.command import cmd_expand as expand_sweep
 from .sweep.overrides import ParameterError, choose, given_values, parse_set, read_params
 from .timeline import timeline
 
@@ -106,8 +107,6 @@ def _stdout_text(text: str, fmt: str) -> str:
     JSON gets ``\\uNNNN`` escapes (still valid JSON), XML/SVG character
     references, everything else the ``\\xNN`` escapes of :func:`printable`.
     """
-    from .errors import UNSAFE
-
     if fmt == "json":
         return UNSAFE.sub(lambda m: m.group() if m.group() == "\n" else f"\\u{ord(m.group()):04x}", text)
     if fmt in ("btcpp", "svg"):
@@ -455,8 +454,6 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         system = _system(args)
         if args.executor == "dask":  # on a Dask cluster (btgen_pytrees.sweep.command)
-            from .sweep.command import dask_batch_args
-
             executor, job, job_args = dask_batch_args(args, files, targets, plot, system)
             args.dask = executor
             return _batch(args, files, job, job_args, after=junit)
@@ -483,8 +480,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         plot_format(args.plot)
     data = _chosen(args) or load_json(args.file)
     if has_variations(data):  # a sweep: every variation (btgen_pytrees.sweep)
-        from .sweep.command import run_sweep
-
         if args.replay or args.btlog or args.signals_out or args.signals:
             raise UsageError("--replay/--btlog/--signals-out/--signals take one case, not a sweep's variations")
 
@@ -530,9 +525,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_expand(args: argparse.Namespace) -> int:
-    from .sweep.command import cmd_expand as expand
-
-    return expand(args, _chosen(args))
+    return expand_sweep(args, _chosen(args))
 
 
 def cmd_schema(args: argparse.Namespace) -> int:

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 from ..errors import printable, shorten, xml_safe
 from ..expressions import bounds
 from ..model import TestCase
+from ..output import write_file
 from .export import ordered_signals, select
 from .report import Report
 from .trace import ENDED
@@ -530,6 +531,4 @@ def plot_run(report: Report, case: TestCase, path: str, signals: Sequence[str] |
     Written as every output is (:func:`btgen_pytrees.output.write_file`): complete or not at all,
     no temporary file left behind on failure, symlinks followed, devices written in place.
     """
-    from ..output import write_file
-
     write_file(path, plot_bytes(report, case, plot_format(path), signals))

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 from typing import Any, Iterator, Mapping
 
 from ..errors import InvalidTestCase, Problem
-from ..leaves import Registry
+from ..leaves import Registry, default_registry
 from .check import collision_problems, count_problem, meaning_problems, shape_problems
-from .parameters import find_sites, substitute
+from .parameters import REFERENCE, find_sites, substitute
 from .variations import Point, Value, Variations, label
 
 __all__ = ["MAX_VARIATIONS", "Sweep", "Variation", "is_parameterised", "has_variations", "nominal", "load_sweep"]
@@ -130,8 +130,6 @@ def _sort_key(problem: Problem) -> Any:
 
 
 def _names(text: str) -> set[str]:
-    from .parameters import REFERENCE
-
     return {m.group(1) for m in REFERENCE.finditer(text)}
 
 
@@ -156,7 +154,6 @@ def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: 
     Raises:
         InvalidTestCase: the template's, the limit's and every variation's problems.
     """
-    from ..leaves import default_registry
     from ..loader import _value_problems, _sort_key, load_json
 
     if isinstance(source, Mapping):

@@ -22,10 +22,11 @@ from .. import batch
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
 from ..errors import ExitCode, InvalidTestCase, Problem
-from ..loader import parse_json, system_spec
+from ..loader import MAX_FILE_BYTES, parse_json, system_spec
 from ..output import commit, write_file
 from ..systems.base import SystemSpec
 from .case import MAX_VARIATIONS, Sweep, Variation, load_sweep
+from .executors import DaskExecutor, DaskUnavailable, check_address, scheduler_address
 from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk, job_run_shipped
 from .report import SweepReport
 from .shipping import Files, ShippingError, read_files
@@ -107,8 +108,6 @@ def make_executor(args: argparse.Namespace) -> Any:
         return None
     import logging
 
-    from .executors import DaskExecutor, DaskUnavailable
-
     try:
         executor = DaskExecutor(address)
         executor.connect()
@@ -129,8 +128,6 @@ def checked_scheduler(args: argparse.Namespace) -> str | None:
     """
     if getattr(args, "executor", None) != "dask":
         return None
-    from .executors import DaskUnavailable, check_address, scheduler_address
-
     address = scheduler_address(args.scheduler)
     if address is None:
         raise Refused("--executor dask needs --scheduler tcp://HOST:PORT (or DASK_SCHEDULER_ADDRESS)")
@@ -319,8 +316,6 @@ def _system_of(raw: bytes | None, path: str, system: SystemSpec | None) -> Syste
 
 def _read(path: str) -> bytes:
     """The file's bytes, with the loader's checks (size limit, no FIFOs) - read once, here."""
-    from ..loader import MAX_FILE_BYTES
-
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO would block the open
             raise InvalidTestCase([Problem((), "not a regular file", "json")], path)

@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
-from ..batch import Outcome
-from ..errors import ExitCode
-from ..leaves import Registry
+from ..batch import Outcome, guard, run_case
+from ..errors import ExitCode, InvalidTestCase
+from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
+from ..loader import MAX_WORK, check_work, parse_json, validate
 from ..systems.base import SystemSpec
 from .shipping import local
 
@@ -67,8 +68,6 @@ class VariationOutcome(Outcome):
 @lru_cache(maxsize=8)
 def _registry(plugins: tuple[str, ...]) -> Registry:
     """One registry per worker process and plugin list (building one imports the plugins)."""
-    from ..leaves import default_registry
-
     return default_registry(plugins)
 
 
@@ -105,8 +104,7 @@ def job_variation(label: str, options: RunOptions, source: str, document: Mappin
 
     *system*: the system to run against (``--system``, or the case's own with its configuration
     resolved on the client); None: the document's, resolved here (only for documents without files)."""
-    from ..loader import MAX_WORK, check_work, validate
-    from ..run import run
+    from ..run import run  # lazily: the run package is ~120 ms of every command's start-up otherwise
 
     registry = _registry(options.local_plugins())
     case = validate(document, source, registry, options.local_system(system))
@@ -128,10 +126,6 @@ def job_run_shipped(path: str, options: RunOptions, raw: bytes | None, problems:
     come back as data for the client to write; *problems* are what reading the
     file found on the client (then *raw* is None). *system* as for :func:`job_variation`.
     """
-    from ..batch import run_case
-    from ..errors import InvalidTestCase
-    from ..loader import parse_json, validate
-
     if raw is None:
         raise InvalidTestCase(problems, path)
     registry = _registry(options.local_plugins())
@@ -153,9 +147,7 @@ def job_chunk(label: str, options: RunOptions, source: str,
     *items*: ``(label, document, system)`` per variation. A run takes milliseconds, about
     what handing a task to a worker process costs; a chunk pays that once for all its runs.
     """
-    from ..batch import _guard
-
-    parts = [_guard(job_variation, name, options, source, document, system) for name, document, system in items]
+    parts = [guard(job_variation, name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} variations", parts=parts)
 
 

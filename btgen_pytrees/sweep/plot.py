@@ -26,6 +26,7 @@ import math
 from typing import TYPE_CHECKING, Any, Sequence
 
 from ..output import write_file
+from ..run.plot import plot_format
 from .report import VERDICTS, SweepReport
 from .variations import format_value
 
@@ -227,7 +228,5 @@ def map_bytes(report: SweepReport, fmt: str) -> bytes:
 
 def plot_sweep(report: SweepReport, path: str) -> None:
     """Write the verdict map to *path* (``.svg``, ``.png`` or ``.html``)."""
-    from ..run.plot import plot_format
-
     write_file(path, map_bytes(report, plot_format(path)))
 

@@ -18,11 +18,11 @@ import enum
 import re
 import signal
 from dataclasses import dataclass
-from typing import Iterable, Union
+from typing import Any, Iterable, Union
 
 from .text import MAX_MESSAGE, shorten
 
-__all__ = ["Problem", "InvalidTestCase", "ExitCode", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
+__all__ = ["Problem", "by_place", "InvalidTestCase", "ExitCode", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
 
 PathPart = Union[str, int]
 
@@ -130,6 +130,12 @@ class Problem:
         """``source: /pointer: message`` on one line: control characters escaped, the message cut
         to :data:`MAX_MESSAGE` characters, the whole line to :data:`MAX_LINE`."""
         return _printable(f"{source}: {self.pointer}: {shorten(self.message)}")
+
+
+def by_place(problem: Problem) -> tuple[Any, ...]:
+    """The key that sorts problems as they are listed (``sorted(problems, key=by_place)``): by place in
+    the document - at one level an index before a key, indices by number - then by message."""
+    return tuple((0, p, "") if isinstance(p, int) else (1, 0, p) for p in problem.path), problem.message
 
 
 class InvalidTestCase(ValueError):

@@ -40,7 +40,7 @@ from typing import Any, Iterable, Iterator, Mapping
 
 import networkx as nx
 
-from .errors import InvalidTestCase, PathPart, Problem
+from .errors import InvalidTestCase, PathPart, Problem, by_place
 from .expressions import RESERVED, Expression, ExpressionError, parse
 from .leaves import Registry, default_registry
 from .leaves.registry import LeafType
@@ -312,7 +312,7 @@ _BIG = int(MAX_MAGNITUDE)
 
 
 def _suspicious(data: Any, depth: int = 0) -> bool:
-    """A quick pass without paths: could :func:`_value_problems` find anything?
+    """A quick pass without paths: could :func:`value_problems` find anything?
 
     Valid documents are the common case; for them this one cheap walk (one regex
     over all strings joined, a bound on integers, a depth count) replaces the
@@ -352,7 +352,7 @@ def _suspicious(data: Any, depth: int = 0) -> bool:
         return True
 
 
-def _value_problems(data: Any) -> Iterator[Problem]:
+def value_problems(data: Any) -> Iterator[Problem]:
     if not _suspicious(data):
         return
     if not isinstance(data, (dict, list)):
@@ -795,10 +795,6 @@ def _pointer(path: tuple[PathPart, ...]) -> str:
     return Problem(path, "").pointer
 
 
-def _sort_key(problem: Problem) -> tuple[Any, ...]:
-    return tuple((0, p, "") if isinstance(p, int) else (1, 0, p) for p in problem.path), problem.message
-
-
 def system_spec(data: Any, source: str) -> SystemSpec | None:
     """The system a case document names, its ``config`` resolved relative to the file *source*
     (absolute), or None when it names none or not in a usable shape (validation says why)."""
@@ -894,7 +890,7 @@ def validate(data: Any, source: str = "<dict>", registry: Registry | None = None
 def _validate(data: Any, source: str, registry: Registry, system: SystemSpec | None) -> TestCase:
     """The detailed checks, stage by stage: every problem, each at its JSON path."""
     _suggestions.left = MAX_SUGGESTIONS  # "did you mean" budget of this document
-    problems = sorted(set(_value_problems(data)), key=_sort_key)  # stage 0 (fuzz findings, see above)
+    problems = sorted(set(value_problems(data)), key=by_place)  # stage 0 (fuzz findings, see above)
     if problems:
         raise InvalidTestCase(problems, source)
     if type(data) is dict and ("parameters" in data or "variations" in data):
@@ -907,7 +903,7 @@ def _validate(data: Any, source: str, registry: Registry, system: SystemSpec | N
             early = _Checker({k: data[k] for k in ("execute", "oracle") if k in data}, registry, source)
             early.leaves_alongside_shape()
             problems.update(early.problems)
-        raise InvalidTestCase(sorted(problems, key=_sort_key), source)
+        raise InvalidTestCase(sorted(problems, key=by_place), source)
     checker = _Checker(data, registry, source, system)
     checker.check_system()
     checker.check_signals()
@@ -917,7 +913,7 @@ def _validate(data: Any, source: str, registry: Registry, system: SystemSpec | N
     if not any(p.cause == "graph" for p in checker.problems):
         checker.cycles(entries)
     if checker.problems:
-        raise InvalidTestCase(sorted(set(checker.problems), key=_sort_key), source)
+        raise InvalidTestCase(sorted(set(checker.problems), key=by_place), source)
     return _case(data, entries, criteria, checker.spec, registry, source)
 
 

@@ -266,8 +266,6 @@ KNOWN_PRIVATE: set[tuple[str, str, str]] = {
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_reject_constant'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_suspicious'),
     ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_validator'),
-    ('btgen_pytrees.sweep.case', 'btgen_pytrees.loader', '_sort_key'),
-    ('btgen_pytrees.sweep.case', 'btgen_pytrees.loader', '_value_problems'),
 }
 KNOWN_UPWARD: set[tuple[str, str]] = {
     ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems'),

@@ -26,7 +26,7 @@ import os
 from dataclasses import dataclass
 from typing import Any, Iterator, Mapping
 
-from ..errors import InvalidTestCase, Problem
+from ..errors import InvalidTestCase, Problem, by_place
 from ..leaves import Registry, default_registry
 from .check import collision_problems, count_problem, meaning_problems, shape_problems
 from .parameters import REFERENCE, find_sites, substitute
@@ -117,16 +117,10 @@ def _prepare(data: Mapping[str, Any], source: str) -> Sweep:
         raise InvalidTestCase(problems, source)
     sweep = Sweep(data, source)
     used = {name for site in sweep.sites for name in _names(site.text)}
-    problems = sorted(set(sweep.problems) | set(meaning_problems(data, used)), key=_sort_key)
+    problems = sorted(set(sweep.problems) | set(meaning_problems(data, used)), key=by_place)
     if problems:
         raise InvalidTestCase(problems, source)
     return sweep
-
-
-def _sort_key(problem: Problem) -> Any:
-    from ..loader import _sort_key as key
-
-    return key(problem)
 
 
 def _names(text: str) -> set[str]:
@@ -154,7 +148,7 @@ def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: 
     Raises:
         InvalidTestCase: the template's, the limit's and every variation's problems.
     """
-    from ..loader import _value_problems, _sort_key, load_json
+    from ..loader import load_json, value_problems
 
     if isinstance(source, Mapping):
         data, name = source, source_name or "<dict>"
@@ -166,7 +160,7 @@ def load_sweep(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: 
         from ..loader import validate
 
         validate(data, name, registry, system)  # raises: not an object
-    problems = sorted(set(_value_problems(data)), key=_sort_key)  # the loader's stage 0
+    problems = sorted(set(value_problems(data)), key=by_place)  # the loader's stage 0
     if problems:
         raise InvalidTestCase(problems, name)
     sweep = _prepare(data, name) if is_parameterised(data) else Sweep(data, name)
@@ -227,4 +221,4 @@ def _check_variations(sweep: Sweep, registry: Registry, every: bool, system: Any
                 where = f"in {count} of {sweep.count} variations: [{first}], ..."
             problem = Problem(problem.path, f"{problem.message} ({where})", problem.cause)
         problems.append(problem)
-    raise InvalidTestCase(sorted(problems, key=_sort_key), sweep.source)
+    raise InvalidTestCase(sorted(problems, key=by_place), sweep.source)

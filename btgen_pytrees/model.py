@@ -12,9 +12,8 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 from .expressions import Expression
-from .systems.base import SystemSpec
 
-__all__ = ["Entry", "Criterion", "TestCase", "label", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES", "DEFAULT_TICK",
+__all__ = ["Entry", "Criterion", "TestCase", "SystemSpec", "label", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES", "DEFAULT_TICK",
            "DEFAULT_TIMEOUT", "DEFAULT_JOIN", "tick_count"]
 
 BEHAVIOR = "behavior"
@@ -122,6 +121,22 @@ class Criterion:
     def label(self) -> str:
         """How reports name the criterion (see :attr:`Entry.label`)."""
         return label(self.id, self.name)
+
+
+@dataclass(frozen=True)
+class SystemSpec:
+    """What a case (or ``run --system TYPE[:CONFIG]``) says about its system.
+
+    Attributes:
+        type: the system type's name (``simulated``, ``sumo``, ...)
+        config: the configuration file, resolved relative to the case file
+            (``None`` when the type needs none)
+        options: simulator options, each checked against the type's allow-list
+    """
+
+    type: str = "simulated"
+    config: str | None = None
+    options: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)

@@ -36,28 +36,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Collection, Mapping, Protocol, runtime_checkable
 
+from ..model import SystemSpec  # case data, defined with the case (re-exported here and in systems)
+
 if TYPE_CHECKING:  # pragma: no cover
     from ..errors import Problem
     from ..leaves.environment import Environment
     from ..model import TestCase
 
 __all__ = ["System", "SystemType", "SystemSpec", "SystemInfo", "SystemFailure"]
-
-
-@dataclass(frozen=True)
-class SystemSpec:
-    """What a case (or ``run --system TYPE[:CONFIG]``) says about its system.
-
-    Attributes:
-        type: the system type's name (``simulated``, ``sumo``, ...)
-        config: the configuration file, resolved relative to the case file
-            (``None`` when the type needs none)
-        options: simulator options, each checked against the type's allow-list
-    """
-
-    type: str = "simulated"
-    config: str | None = None
-    options: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -61,10 +61,10 @@ LOADER = "jsonschema, the loader's validator"
 def _loader_validator() -> Any:
     """The loader's own cached test-case validator, or ``None`` if it has none we can reach.
 
-    A private name, read defensively: the loader may change how it builds its
-    validator (it did: ``$ref``s inlined), and the baseline must follow it.
+    Read defensively: the loader may change how it builds its validator (it did:
+    ``$ref``s inlined), and the baseline must follow it.
     """
-    make = getattr(loader, "_validator", None)
+    make = getattr(loader, "case_validator", None)
     try:
         return make() if callable(make) else None
     except Exception:

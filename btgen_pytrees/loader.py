@@ -180,7 +180,7 @@ def inline_refs(node: Any, root: Mapping[str, Any], depth: int = 0) -> Any:
 
 
 @lru_cache(maxsize=1)
-def _validator() -> SchemaValidator:
+def case_validator() -> SchemaValidator:
     return SchemaValidator(inline_refs(schema(), schema()), checked=True)  # tests/test_validation_fastpath.py checks it
 
 
@@ -192,7 +192,7 @@ class _DuplicateKey(ValueError):
     pass
 
 
-def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+def no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     obj = dict(pairs)  # in C; a key seen twice makes the dict shorter than the pairs
     if len(obj) != len(pairs):
         seen: set[str] = set()
@@ -203,7 +203,7 @@ def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return obj
 
 
-def _reject_constant(name: str) -> Any:
+def reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not valid JSON")
 
 
@@ -256,7 +256,7 @@ def parse_json(raw: bytes | str, source: str = "<string>") -> Any:
     except UnicodeDecodeError as exc:
         raise fail(f"not UTF-8 text (byte {exc.start})") from None
     try:
-        return json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_reject_constant)
+        return json.loads(text, object_pairs_hook=no_duplicates, parse_constant=reject_constant)
     except json.JSONDecodeError as exc:
         raise fail(f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
     except _DuplicateKey as exc:
@@ -278,12 +278,12 @@ def parse_json(raw: bytes | str, source: str = "<string>") -> Any:
 # * a value nested ~1000 deep parsed, then raised RecursionError while an error
 #   message showed it.
 
-_SURROGATE = re.compile("[\ud800-\udfff]")
+SURROGATE = re.compile("[\ud800-\udfff]")
 
 
 def _scalar_problem(path: tuple[PathPart, ...], value: Any) -> Problem | None:
     if isinstance(value, str):
-        bad = _SURROGATE.search(value)
+        bad = SURROGATE.search(value)
         if bad:
             return Problem(path, f"not valid Unicode: lone surrogate {ascii(bad.group())} at character {bad.start()}", "json")
     elif isinstance(value, int) and not isinstance(value, bool):
@@ -311,7 +311,7 @@ _PLAIN = (bool, type(None))
 _BIG = int(MAX_MAGNITUDE)
 
 
-def _suspicious(data: Any, depth: int = 0) -> bool:
+def suspicious(data: Any, depth: int = 0) -> bool:
     """A quick pass without paths: could :func:`value_problems` find anything?
 
     Valid documents are the common case; for them this one cheap walk (one regex
@@ -347,13 +347,13 @@ def _suspicious(data: Any, depth: int = 0) -> bool:
             elif kind not in _PLAIN:
                 return True  # a subclass or an odd type from a dict: look closely
     try:
-        return _SURROGATE.search("".join(strings)) is not None
+        return SURROGATE.search("".join(strings)) is not None
     except TypeError:  # a non-string key in a dict given from Python: look closely
         return True
 
 
 def value_problems(data: Any) -> Iterator[Problem]:
-    if not _suspicious(data):
+    if not suspicious(data):
         return
     if not isinstance(data, (dict, list)):
         problem = _scalar_problem((), data)
@@ -367,7 +367,7 @@ def value_problems(data: Any) -> Iterator[Problem]:
             yield Problem(path, f"nested more than {MAX_NESTING} levels deep", "limit")
             continue
         for key, item in container.items() if isinstance(container, dict) else enumerate(container):
-            if isinstance(key, str) and _SURROGATE.search(key):
+            if isinstance(key, str) and SURROGATE.search(key):
                 yield Problem(path, f"not valid Unicode: key {ascii(key)[:MAX_MESSAGE]} has a lone surrogate", "json")
                 continue
             if isinstance(item, (dict, list)):
@@ -393,7 +393,7 @@ def _resolve(data: Any, path: tuple[PathPart, ...]) -> Any:
 
 
 def _schema_problems(data: Any) -> Iterator[Problem]:
-    return _described(_validator().iter_errors(data), data)
+    return _described(case_validator().iter_errors(data), data)
 
 
 def _described(errors: Iterable[Any], data: Any, prefix: tuple[PathPart, ...] = (), cause: str = "schema") -> Iterator[Problem]:
@@ -467,7 +467,7 @@ def _suggest(word: str, candidates: Iterable[str]) -> str:
     return did_you_mean(word, candidates, similar_length=True)
 
 
-class _Checker:
+class Checker:
     """Collects meaning-level problems of one schema-valid document."""
 
     def __init__(self, data: Mapping[str, Any], registry: Registry, source: str = "<dict>", system: SystemSpec | None = None):
@@ -596,8 +596,8 @@ class _Checker:
         else:
             before = len(self.problems)
             compiled = self._leaf(("execute", i), kind, action, params if params is not None else {})
-            frozen = _frozen(params)
-            expressions = _frozen(compiled)
+            frozen = freeze(params)
+            expressions = freeze(compiled)
             if key is not None and not compiled and len(self.problems) == before and self._plain(kind, action, params):
                 checked[key] = frozen
         return Entry(
@@ -738,7 +738,7 @@ class _Checker:
             if expr is not None:
                 out.append(Criterion(
                     raw["id"], raw["type"], expr, raw.get("name", raw["id"]), i, start, end, raw.get("at"),
-                    action=raw.get("action"), params=_frozen(params), expressions=_frozen(expressions),
+                    action=raw.get("action"), params=freeze(params), expressions=freeze(expressions),
                 ))  # fmt: skip
         return out
 
@@ -786,7 +786,7 @@ def _params_key(kind: str, action: str | None, params: Mapping[str, Any] | None)
     return key
 
 
-def _frozen(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
+def freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
     """A read-only copy; every empty one is the same shared object (most entries have no expressions)."""
     return MappingProxyType(dict(mapping)) if mapping else EMPTY
 
@@ -900,11 +900,11 @@ def _validate(data: Any, source: str, registry: Registry, system: SystemSpec | N
         if isinstance(data, dict):  # the params of well-formed entries in the same round
             # only the parts it reads: the rest of the document may have any shape now (fuzz finding:
             # "signals" as a list crashed the checker's set-up)
-            early = _Checker({k: data[k] for k in ("execute", "oracle") if k in data}, registry, source)
+            early = Checker({k: data[k] for k in ("execute", "oracle") if k in data}, registry, source)
             early.leaves_alongside_shape()
             problems.update(early.problems)
         raise InvalidTestCase(sorted(problems, key=by_place), source)
-    checker = _Checker(data, registry, source, system)
+    checker = Checker(data, registry, source, system)
     checker.check_system()
     checker.check_signals()
     checker.check_limits()
@@ -914,10 +914,10 @@ def _validate(data: Any, source: str, registry: Registry, system: SystemSpec | N
         checker.cycles(entries)
     if checker.problems:
         raise InvalidTestCase(sorted(set(checker.problems), key=by_place), source)
-    return _case(data, entries, criteria, checker.spec, registry, source)
+    return build_case(data, entries, criteria, checker.spec, registry, source)
 
 
-def _case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Criterion], spec: SystemSpec,
+def build_case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Criterion], spec: SystemSpec,
           registry: Registry, source: str) -> TestCase:  # fmt: skip
     """The :class:`TestCase` of a valid document, from its checked entries and criteria."""
     relation = data.get("oracle", {}).get("relation", "&&")

@@ -56,16 +56,16 @@ from typing import Any, Callable, Iterable, Iterator, Mapping
 from .leaves import Registry
 from .leaves.registry import LeafType
 from .loader import (
-    _case,
-    _Checker,
-    _frozen,
-    _no_duplicates,
-    _reject_constant,
-    _SURROGATE,
-    _suspicious,
-    _validator,
+    SURROGATE,
+    Checker,
+    build_case,
+    case_validator,
+    freeze,
     inline_refs,
+    no_duplicates,
+    reject_constant,
     schema,
+    suspicious,
 )
 from .model import DEFAULT_JOIN, EMPTY, Criterion, Entry, TestCase
 from .order import is_acyclic
@@ -201,8 +201,8 @@ def _scanner(hook: bool = True) -> Callable[[str, int], Any]:
     dicts read (:attr:`_Builder.keys`), no object had a key twice.
     """
     if not hook:
-        return json.JSONDecoder(parse_constant=_reject_constant).scan_once
-    return json.JSONDecoder(object_pairs_hook=_no_duplicates, parse_constant=_reject_constant).scan_once
+        return json.JSONDecoder(parse_constant=reject_constant).scan_once
+    return json.JSONDecoder(object_pairs_hook=no_duplicates, parse_constant=reject_constant).scan_once
 
 
 class _Rules:
@@ -306,7 +306,7 @@ class _Builder:
         rules, ids, entries, leaves = self.rules, self.ids, self.entries, self.leaves
         joins, name_min, name_max = rules.joins, rules.name_min, rules.name_max
         default_join, join_known, count_keys = self.default_join, self.join_known, self.count_keys
-        surrogate, new_id, new_entry = _SURROGATE.search, ids.add, entries.append
+        surrogate, new_id, new_entry = SURROGATE.search, ids.add, entries.append
         keys = self.keys
         for raw in items:
             if type(raw) is not dict:
@@ -372,14 +372,14 @@ class _Builder:
                 if params:
                     if key is None and count_keys:
                         keys += _nested_keys(params)
-                    if _suspicious(params, 3) or leaf.validator is not None and not _fits(leaf.validator, params):
+                    if suspicious(params, 3) or leaf.validator is not None and not _fits(leaf.validator, params):
                         raise _NotHere
                     if leaf.special and any(k in params for k in leaf.special):
                         self._later(i, raw)  # a signal name or an expression: needs the whole document
                         continue
                 elif leaf.validator is not None and not _fits(leaf.validator, {}):
                     raise _NotHere
-                frozen = _frozen(params)
+                frozen = freeze(params)
                 if key is not None:
                     leaf.checked[key] = frozen
             new_entry(Entry(id_, kind, action, frozen, after, join, name, i, EMPTY))
@@ -393,7 +393,7 @@ class _Builder:
     def _leaf(self, kind: str, action: str) -> _Leaf:
         """The registered leaf of a (kind, action) seen for the first time (checked as a schema would)."""
         rules = self.rules
-        if kind not in rules.kinds or not rules.action_min <= len(action) <= rules.action_max or _SURROGATE.search(action):
+        if kind not in rules.kinds or not rules.action_min <= len(action) <= rules.action_max or SURROGATE.search(action):
             raise _NotHere
         leaf_type = self.registry.get(kind, action)
         if leaf_type is None:
@@ -421,9 +421,9 @@ class _Builder:
             return None
         rest = {k: v for k, v in data.items() if k != "execute"}
         # the schema over the rest, with the first entry standing for all of them (each was checked as it came)
-        if _suspicious(rest) or not _small_fits({**rest, "execute": [self.first]}):
+        if suspicious(rest) or not _small_fits({**rest, "execute": [self.first]}):
             return None
-        checker = _Checker(rest, self.registry, source, system)
+        checker = Checker(rest, self.registry, source, system)
         if self.registry.system(checker.spec.type) is not SIMULATED:
             return None  # another system's describe() may read the whole document, entries included
         checker.check_system()
@@ -449,7 +449,7 @@ class _Builder:
         done: list[Entry] = entries  # type: ignore[assignment]
         if self.forward and not is_acyclic({e.id: e.after for e in done}):
             return None
-        return _case(data, done, criteria, checker.spec, self.registry, source)
+        return build_case(data, done, criteria, checker.spec, self.registry, source)
 
 
 def _nested_keys(value: Any) -> int:
@@ -472,7 +472,7 @@ cost more than it saves."""
 
 
 def _small_fits(doc: dict[str, Any]) -> bool:
-    validator = _validator()
+    validator = case_validator()
     oracle, signals = doc.get("oracle"), doc.get("signals")
     criteria = oracle.get("criteria") if type(oracle) is dict else None
     size = (len(criteria) if type(criteria) is list else 0) + (len(signals) if type(signals) is dict else 0)

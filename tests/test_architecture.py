@@ -256,16 +256,7 @@ KNOWN_FUNCTION_LEVEL: set[tuple[str, str]] = {
     ('btgen_pytrees.sweep.command', 'btgen_pytrees.sweep.plot'),
     ('btgen_pytrees.sweep.jobs', 'btgen_pytrees.run'),
 }
-KNOWN_PRIVATE: set[tuple[str, str, str]] = {
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_Checker'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_SURROGATE'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_case'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_frozen'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_no_duplicates'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_reject_constant'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_suspicious'),
-    ('btgen_pytrees.onepass', 'btgen_pytrees.loader', '_validator'),
-}
+KNOWN_PRIVATE: set[tuple[str, str, str]] = set()
 KNOWN_UPWARD: set[tuple[str, str]] = {
     ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems'),
     ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems.simulated'),

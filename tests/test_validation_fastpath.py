@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from test_fuzz import mutants
 
 from btgen_pytrees.leaves import default_registry
-from btgen_pytrees.loader import _validator, parse_json
+from btgen_pytrees.loader import case_validator, parse_json
 from btgen_pytrees.errors import InvalidTestCase
 from btgen_pytrees.validation import SchemaValidator
 
@@ -36,7 +36,7 @@ def agree(validator: SchemaValidator, data: Any) -> None:
 
 
 def test_the_test_case_schema_uses_the_fast_path() -> None:
-    assert _validator().fast is not None
+    assert case_validator().fast is not None
     for name in ("set", "ramp", "hold", "wait", "until"):
         assert default_registry().get("constraint" if name in ("wait", "until") else "behavior", name).params_validator.fast is not None
 
@@ -49,7 +49,7 @@ def test_fast_and_full_agree_on_fuzzed_documents(mutant: tuple[bytes, list[str]]
         data = parse_json(raw)
     except InvalidTestCase:
         return
-    agree(_validator(), data)
+    agree(case_validator(), data)
     for entry in data.get("execute", []) if isinstance(data, dict) and isinstance(data.get("execute"), list) else []:
         if isinstance(entry, dict) and entry.get("action") in ("set", "ramp", "hold") and "params" in entry:
             agree(default_registry().get("behavior", entry["action"]).params_validator, entry["params"])
@@ -57,7 +57,7 @@ def test_fast_and_full_agree_on_fuzzed_documents(mutant: tuple[bytes, list[str]]
 
 @pytest.mark.parametrize("path", sorted(ROOT.glob("examples/**/*.json")), ids=lambda p: p.name)
 def test_examples(path: pathlib.Path) -> None:
-    agree(_validator(), json.loads(path.read_text()))
+    agree(case_validator(), json.loads(path.read_text()))
 
 
 def test_schemas_beyond_draft7_skip_the_fast_path() -> None:

@@ -28,7 +28,6 @@ btgen_pytrees.sweep.overrides.ParameterError: --set dd=3: unknown parameter 'dd'
 
 from __future__ import annotations
 
-import difflib
 import json
 import math
 import os
@@ -38,6 +37,7 @@ from typing import Any, Mapping, Sequence
 from ..errors import InvalidTestCase, Problem, shorten
 from ..leaves import Registry
 from ..loader import load_json
+from ..text import closest
 from .case import load_sweep
 from .variations import Value, format_value, label
 
@@ -122,8 +122,8 @@ def check_given(given: Mapping[str, Given], defaults: Mapping[str, Value]) -> li
     lines = []
     for name, item in given.items():
         if name not in defaults:
-            hint = difflib.get_close_matches(name, list(defaults), n=1)
-            tip = (f" (did you mean '{hint[0]}'?)" if hint else f" (declared: {', '.join(defaults)})") if defaults else (
+            hint = closest(name, defaults)
+            tip = (f" (did you mean '{hint}'?)" if hint is not None else f" (declared: {', '.join(defaults)})") if defaults else (
                 " (the case declares no parameters)")  # fmt: skip
             lines.append(f"{item.origin}: unknown parameter '{name}'{tip}")
             continue

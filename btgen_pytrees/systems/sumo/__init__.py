@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping
 
 from ...errors import Problem
 from ...expressions import RESERVED
+from ...model import DEFAULT_TICK
 from ...text import did_you_mean
 from ..base import SystemFailure, SystemInfo, SystemSpec
 from . import actions
@@ -74,7 +75,7 @@ class SumoType:
                                     f"{INSTALL_HINT}", "system"))  # fmt: skip
         for index, message in parse_options(list(spec.options))[1]:
             problems.append(Problem(("system", "options", index), message, "system"))
-        tick = tick_problem(case_data.get("tick", 0.1))
+        tick = tick_problem(case_data.get("tick", DEFAULT_TICK))
         if tick is not None:
             problems.append(Problem(("tick",), tick, "system"))
         if not spec.config:

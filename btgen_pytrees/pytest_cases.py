@@ -301,7 +301,11 @@ class Btgen:
         if system is None:
             report = run(case, registry=self.registry)
         else:
-            report = run_tree(generate(case, registry=self.registry, clock=system), case, system=system)
+            root = generate(case, registry=self.registry, clock=system)
+            try:
+                report = run_tree(root, case, system=system)
+            finally:
+                root.btgen_env.release()
         if not report.passed:
             written, notes = [], []
             if self.settings.artifacts:

@@ -172,7 +172,12 @@ def test_library_leaves_host_global_state_alone(fig1_path: str) -> None:
     before = host_state()
     loaded = btgen_pytrees.load(fig1_path)
     assert run(loaded).verdict == "pass"
-    btgen_pytrees.generate(loaded).tick_once()
+    assert host_state() == before  # run() unregistered the blackboard clients of the tree it made
+    root = btgen_pytrees.generate(loaded)
+    root.tick_once()
+    ours = {c.id(): c.name for node in root.iterate() for c in node.blackboards}
+    assert dict(py_trees.blackboard.Blackboard.clients) == {**before[-2], **ours}  # the tree's leaves' clients, added
+    root.btgen_env.release()
     assert host_state() == before
 
 

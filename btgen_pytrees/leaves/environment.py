@@ -19,19 +19,43 @@ while a tick runs), and so does whatever reads it after the tick, until the
 next one begins.
 
 Values are stored in :attr:`py_trees.blackboard.Blackboard.storage` under those
-absolute keys (so py_trees' blackboard views show them). Reads go to the storage
-directly rather than through a :class:`py_trees.blackboard.Client`: client
-attribute access would collide with signals called ``name``, ``read`` or ``set``,
-and this is the hot path of every tick. Writes go to the storage directly too
-(what :meth:`Blackboard.set <py_trees.blackboard.Blackboard.set>` does for an
-absolute key without dots; a signal name may hold dots, which ``Blackboard.set``
-would read as an attribute path), adding the key's metadata
-only when the key is new: ``Blackboard.set`` builds a fresh metadata object on
-every call, even for a key it already has. The completion flags (``done``,
-``failed``, ``execute_done``) of one tree share one (empty) metadata object:
-no client reads or writes them, and four long-lived objects per flag - 400,000
-for a 100,000-entry run - would make CPython's collector traverse the whole
-heap during the run.
+absolute keys (so py_trees' blackboard views show them).
+
+**Who reads and writes what: py_trees clients.** Every test leaf that touches
+the blackboard - a built-in behaviour or constraint, an oracle, the run's start -
+has its own :class:`py_trees.blackboard.Client`, attached to the leaf
+(``leaf.blackboards``) and named after it, with the keys it reads and writes
+declared (:meth:`Environment.attach`): ``set x`` writes ``<ns>/signals/x``, a
+criterion ``speed <= 30`` reads ``<ns>/signals/speed``. So py_trees' own tools
+show them: ``Blackboard.clients``, ``unicode_blackboard(display_only_key_metadata=True)``
+(the readers and writers of each key), ``render_dot_tree(root,
+with_blackboard_variables=True)`` (an edge between each leaf and its keys), and,
+once the *host* turns it on (``Blackboard.enable_activity_stream()``; the
+library never does), ``unicode_blackboard_activity_stream()``: while the stream
+is on, every read and write of a leaf goes through its client (``getattr`` /
+``setattr`` with the absolute key), so py_trees itself records it, under the
+leaf's name. While it is off, the same read or write goes to the storage
+directly - what the client does then, minus its access check (the keys are the
+declared ones by construction) and about a microsecond per access on the hot path
+of every tick. A leaf without blackboard keys (``hold``, ``wait``, the SUMO
+actions, which act on the system) gets no client, and neither do the
+generator's wiring nodes (see below). A tree's clients are unregistered by
+:meth:`Environment.release` (``run()`` does it for the tree it made; a host that
+generated a tree may do it when it drops the tree).
+
+Writes that are not a leaf's (a system's :meth:`Environment.publish`, the
+completion flags) go to the storage directly too (what :meth:`Blackboard.set
+<py_trees.blackboard.Blackboard.set>` does for an absolute key without dots; a
+signal name may hold dots, which ``Blackboard.set`` would read as an attribute
+path), adding the key's metadata only when the key is new: ``Blackboard.set``
+builds a fresh metadata object on every call, even for a key it already has. The
+completion flags (``done``, ``failed``, ``execute_done``) of one tree share one
+(empty) metadata object: they are the wiring's, not a test leaf's - a client per
+:class:`~btgen_pytrees.leaves.wiring.Completion` would cost a 100,000-entry
+``fan_in`` 100,000 clients - and four long-lived objects per flag - 400,000 for
+a 100,000-entry run - would make CPython's collector traverse the whole heap
+during the run. (A ``period``/``final`` criterion that waits for the execute
+subtree declares its read of ``execute_done``.)
 """
 
 from __future__ import annotations
@@ -39,7 +63,9 @@ from __future__ import annotations
 import re
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
-from py_trees.blackboard import Blackboard, KeyMetaData
+import py_trees
+from py_trees.blackboard import Blackboard, Client, KeyMetaData
+from py_trees.common import Access
 
 from ..clock import Clock, WallClock
 
@@ -105,9 +131,52 @@ class Environment:
         self._tick_time: float | None = None  # the clock as read when the current (or last) tick began
         self._done_listeners: list[Callable[[str], None]] = []
         self._flags = KeyMetaData()  # shared by the completion flags' keys (see the module docstring)
+        self._clients: list[Client] = []
+
+    # -- keys and clients ----------------------------------------------
+    def signal_key(self, name: str) -> str:
+        """The blackboard key of signal *name*: ``<ns>/signals/<name>``."""
+        return self._signals + name
+
+    @property
+    def execute_done_key(self) -> str:
+        return self._execute_done
+
+    @property
+    def t0_key(self) -> str:
+        return self._t0
+
+    def attach(self, behaviour: py_trees.behaviour.Behaviour, *, reads: Iterable[str] = (),
+               writes: Iterable[str] = ()) -> Client | None:  # fmt: skip
+        """Attach a py_trees client named after *behaviour* with the absolute keys it *reads*
+        and *writes* declared (``Access.READ``/``Access.WRITE``); ``None`` when it has none.
+
+        Pass the client to :meth:`read`, :meth:`write`, :meth:`values` and
+        :meth:`execute_done`: while the host has the activity stream on, the access
+        goes through it (and is recorded); otherwise to the storage directly.
+        """
+        writes = list(dict.fromkeys(writes))
+        reads = [k for k in dict.fromkeys(reads) if k not in writes]  # WRITE access reads too
+        if not writes and not reads:
+            return None
+        client = behaviour.attach_blackboard_client(name=behaviour.name)
+        for key in writes:
+            client.register_key(key, Access.WRITE)
+        for key in reads:
+            client.register_key(key, Access.READ)
+        self._clients.append(client)
+        return client
+
+    def release(self) -> None:
+        """Unregister this tree's clients (their values stay on the blackboard); the tree's
+        leaves keep running without them, unseen by the activity stream."""
+        for client in self._clients:
+            if client.id() in Blackboard.clients:
+                client.unregister(clear=False)
+        self._clients = []
 
     # -- run lifecycle -------------------------------------------------
-    def start_run(self) -> None:
+    def start_run(self, client: Client | None = None) -> None:
         """Forget what an earlier run of this tree left, then set t0 and the initial signals.
 
         Forgotten: completion flags, t0, and every signal written with
@@ -115,7 +184,8 @@ class Environment:
         host using ``write``). Kept: values the tree did not write - published by
         a system (:meth:`publish`) or by a host before the tree's first tick. An
         initial signal is written only where no value is kept, so it never
-        overwrites a system's value or a host's.
+        overwrites a system's value or a host's. *client*: the writer of t0 and the
+        initial signals (:class:`~btgen_pytrees.leaves.wiring.RunStart`'s).
         """
         prefix, signals = self.namespace + "/", self._signals
         storage = Blackboard.storage
@@ -126,10 +196,13 @@ class Environment:
                 storage.pop(signals + name, None)
         self._written = set()
         self._runs += 1
-        _set(self._t0, self.clock.now() if self._tick_time is None else self._tick_time)
+        t0 = self.clock.now() if self._tick_time is None else self._tick_time
+        if client is not None and Blackboard.activity_stream is not None:
+            setattr(client, self._t0, t0)
+        _set(self._t0, t0)
         for name, value in self.initial_signals.items():
             if signals + name not in storage:
-                self.write(name, value)
+                self.write(name, value, client)
 
     def begin_tick(self) -> float:
         """A tick of the tree begins: read the clock, once; :meth:`now` answers from this reading
@@ -148,19 +221,27 @@ class Environment:
         return t - Blackboard.storage.get(self._t0, t)
 
     # -- signals ---------------------------------------------------------
-    def read(self, name: str) -> Any:
+    def read(self, name: str, client: Client | None = None) -> Any:
         """The current value of signal *name*; ``KeyError`` if it has none."""
-        return Blackboard.storage[self._signals + name]
+        key = self._signals + name
+        if client is not None and Blackboard.activity_stream is not None and key in Blackboard.storage:
+            return getattr(client, key)
+        return Blackboard.storage[key]
 
-    def write(self, name: str, value: Any) -> None:
+    def write(self, name: str, value: Any, client: Client | None = None) -> None:
         """Set signal *name*, as the test: a re-run of the tree forgets it (see :meth:`start_run`)."""
         self._written.add(name)
+        key = self._signals + name
+        if client is not None and Blackboard.activity_stream is not None:
+            setattr(client, key, value)  # the client records it (an absolute key: dots are not attributes)
         # the storage directly: Blackboard.set would take 'ego.speed' as attribute 'speed' of key 'ego'
-        _set(self._signals + name, value)
+        _set(key, value)
 
-    def values(self, names: Iterable[str]) -> dict[str, Any]:
+    def values(self, names: Iterable[str], client: Client | None = None) -> dict[str, Any]:
         """The current values of those *names* that have one."""
         storage, prefix = Blackboard.storage, self._signals
+        if client is not None and Blackboard.activity_stream is not None:
+            return {n: getattr(client, prefix + n) for n in names if prefix + n in storage}
         return {n: storage[prefix + n] for n in names if prefix + n in storage}
 
     def publish(self, name: str, value: Any) -> None:
@@ -197,5 +278,8 @@ class Environment:
     def mark_execute_done(self) -> None:
         _set(self._execute_done, True, self._flags)
 
-    def execute_done(self) -> bool:
-        return self._execute_done in Blackboard.storage
+    def execute_done(self, client: Client | None = None) -> bool:
+        done = self._execute_done in Blackboard.storage
+        if done and client is not None and Blackboard.activity_stream is not None:
+            getattr(client, self._execute_done)  # recorded as the read it is
+        return done

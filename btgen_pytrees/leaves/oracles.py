@@ -75,6 +75,12 @@ class Oracle(py_trees.behaviour.Behaviour):
         self.outcome = Outcome()
         self.samples: list[tuple[float, dict[str, Any]]] = []
         self.judged = 0  # ticks judged in this run
+        reads = [env.signal_key(n) for n in criterion.expect.ordered_names]
+        self.client = env.attach(self, reads=reads + ([env.execute_done_key] if self.waits_for_execute() else []))
+
+    def waits_for_execute(self) -> bool:
+        """Whether it reads ``execute_done`` (a period without ``to``, a final without ``at``)."""
+        return False
 
     def initialise(self) -> None:
         self.outcome = Outcome()
@@ -84,7 +90,7 @@ class Oracle(py_trees.behaviour.Behaviour):
     def check(self, now: float) -> bool:
         """Evaluate ``expect`` now; remember the values; on failure record the outcome."""
         expect = self.criterion.expect
-        values = self.env.values(expect.ordered_names)
+        values = self.env.values(expect.ordered_names, self.client)
         if (not self.samples or self.samples[-1][1] != values) and len(self.samples) < MAX_SAMPLES:
             self.samples.append((now, values))
         margin: float | None
@@ -122,6 +128,9 @@ class Record(Oracle):
 
 
 class Period(Oracle):
+    def waits_for_execute(self) -> bool:
+        return self.criterion.end is None
+
     def update(self) -> Status:
         now = self.env.now()
         start = self.criterion.start or 0.0
@@ -134,16 +143,19 @@ class Period(Oracle):
         end = self.criterion.end
         if end is not None and reached(now, end):
             return self.succeed(now, f"held from {start:g} s to {end:g} s")
-        if end is None and self.env.execute_done():
+        if end is None and self.env.execute_done(self.client):
             return self.succeed(now, f"held from {start:g} s to {now:.6g} s (the execute subtree had finished)")
         return Status.RUNNING
 
 
 class Final(Oracle):
+    def waits_for_execute(self) -> bool:
+        return self.criterion.at is None
+
     def update(self) -> Status:
         now = self.env.now()
         at = self.criterion.at
-        due = reached(now, at) if at is not None else self.env.execute_done()
+        due = reached(now, at) if at is not None else self.env.execute_done(self.client)
         if not due:
             return Status.RUNNING
         if not self.check(now):

@@ -30,7 +30,12 @@ def reached(elapsed: float, duration: float) -> bool:
 
 
 class SimulatedLeaf(py_trees.behaviour.Behaviour):
-    """Base: remembers its entry, its environment and when it started."""
+    """Base: remembers its entry, its environment and when it started.
+
+    ``client`` is its py_trees blackboard client, with the keys of :meth:`keys`
+    declared (``None`` for a leaf without any; see
+    :meth:`Environment.attach <btgen_pytrees.leaves.Environment.attach>`).
+    """
 
     def __init__(self, entry: Entry, env: Environment):
         super().__init__(name=entry.name)
@@ -38,6 +43,12 @@ class SimulatedLeaf(py_trees.behaviour.Behaviour):
         self.env = env
         self.params = entry.params
         self.started = 0.0
+        reads, writes = self.keys()
+        self.client = env.attach(self, reads=reads, writes=writes) if reads or writes else None
+
+    def keys(self) -> tuple[list[str], list[str]]:
+        """The blackboard keys this leaf reads and writes (absolute); none by default."""
+        return [], []
 
     def initialise(self) -> None:
         self.started = self.env.now()
@@ -49,9 +60,12 @@ class SimulatedLeaf(py_trees.behaviour.Behaviour):
 class Set(SimulatedLeaf):
     """``set {signal, value, duration?}``: write *value* at start, then hold for *duration*."""
 
+    def keys(self) -> tuple[list[str], list[str]]:
+        return [], [self.env.signal_key(self.params["signal"])]
+
     def initialise(self) -> None:
         super().initialise()
-        self.env.write(self.params["signal"], self.params["value"])
+        self.env.write(self.params["signal"], self.params["value"], self.client)
         self.feedback_message = f"{self.params['signal']} = {self.params['value']}"
 
     def update(self) -> Status:
@@ -67,11 +81,14 @@ class Ramp(SimulatedLeaf):
     A boolean signal cannot be interpolated: it takes *to* at the end of the ramp.
     """
 
+    def keys(self) -> tuple[list[str], list[str]]:
+        return [], [self.env.signal_key(self.params["signal"])]  # written, and read at the start
+
     def initialise(self) -> None:
         super().initialise()
         signal = self.params["signal"]
         try:
-            self.origin: Any = self.env.read(signal)
+            self.origin: Any = self.env.read(signal, self.client)
         except KeyError:  # a signal without an initial value ramps from 0
             self.origin = 0
 
@@ -79,13 +96,13 @@ class Ramp(SimulatedLeaf):
         signal, target, duration = self.params["signal"], self.params["to"], self.params["duration"]
         elapsed = self.elapsed()
         if reached(elapsed, duration):
-            self.env.write(signal, target)
+            self.env.write(signal, target, self.client)
             self.feedback_message = f"{signal} = {target}"
             return Status.SUCCESS
         if isinstance(self.origin, bool):
             return Status.RUNNING
         value = self.origin + (target - self.origin) * (elapsed / duration)
-        self.env.write(signal, value)
+        self.env.write(signal, value, self.client)
         self.feedback_message = f"{signal} = {value:.6g}"
         return Status.RUNNING
 
@@ -107,9 +124,12 @@ class Wait(Hold):
 class Until(SimulatedLeaf):
     """``until {expect, timeout?}``: succeed on the first tick *expect* holds; fail after *timeout*."""
 
+    def keys(self) -> tuple[list[str], list[str]]:
+        return [self.env.signal_key(n) for n in self.entry.expressions["expect"].ordered_names], []
+
     def update(self) -> Status:
         expect = self.entry.expressions["expect"]
-        values = self.env.values(expect.ordered_names)
+        values = self.env.values(expect.ordered_names, self.client)
         why = ""
         try:
             ok = bool(expect.evaluate(values))

@@ -67,9 +67,10 @@ class RunStart(py_trees.behaviour.Behaviour):
     def __init__(self, env: Environment, name: str = "start"):
         super().__init__(name=name)
         self.env = env
+        self.client = env.attach(self, writes=[env.t0_key, *(env.signal_key(n) for n in env.initial_signals)])
 
     def update(self) -> Status:
-        self.env.start_run()
+        self.env.start_run(self.client)
         signals = self.env.initial_signals
         self.feedback_message = ", ".join(f"{k}={v!r}" for k, v in signals.items()) or "no signals"
         return Status.SUCCESS

@@ -199,8 +199,11 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
             raise
         return Report(case.name, "error", 0.0, 0, f"building the tree failed: {_described(exc)}",
                       source=case.source)
-    return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress,
-                    max_work=max_work)
+    try:
+        return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress,
+                        max_work=max_work)
+    finally:
+        root.btgen_env.release()  # the tree was made here and goes now: its blackboard clients with it
 
 
 def work_per_tick(case: TestCase) -> int:

@@ -24,7 +24,7 @@ from ..render import GraphvizMissing
 from ..run import run
 from ..run.plot import plot_format
 from ..run.replay import replay_html
-from ..errors import InvalidTestCase, Problem
+from ..errors import ExitCode, InvalidTestCase, Problem
 from ..leaves import Registry, default_registry
 from ..output import OutputError, check_target, commit
 from ..sweep.case import Sweep, Variation, load_sweep
@@ -41,7 +41,6 @@ from .space import Space
 
 __all__ = ["cmd_falsify", "settings_of", "concrete_case", "add_arguments"]
 
-EXIT_NONE, EXIT_FALSIFIED, EXIT_INVALID = 0, 1, 2
 _MAX_LIMIT = 10**18
 
 
@@ -185,7 +184,7 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         print(f"btgen_pytrees: interrupted by {signal.Signals(signum).name} after {len(search.runs)} runs; what was found is kept",
               file=sys.stderr)  # fmt: skip
         return 128 + signum
-    return EXIT_FALSIFIED if data["failures"] else EXIT_NONE
+    return ExitCode.FAIL if data["failures"] else ExitCode.OK
 
 
 def _check_outputs(args: argparse.Namespace) -> None:

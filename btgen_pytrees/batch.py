@@ -163,7 +163,8 @@ def guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
     except (PluginError, FactoryError, GraphvizMissing) as error:
         return Outcome(path, ExitCode.INVALID, str(error).splitlines()[0], [f"{path}: {error}"])
     except Exception as exc:  # noqa: BLE001 - one bad file must not stop the batch
-        return Outcome(path, ExitCode.INTERNAL, f"internal error: {type(exc).__name__}: {exc}")
+        why = f"internal error: {type(exc).__name__}: {exc}"
+        return Outcome(path, ExitCode.INTERNAL, why, [f"{path}: {why}"])  # printed by every command, 'validate' too
     except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt from user code
         if is_interrupt(exc):
             raise

@@ -20,12 +20,14 @@ from . import __version__
 from . import batch
 from .construct import generate
 from .errors import MAX_PROBLEMS, UNSAFE, ExitCode, Interrupt, InvalidTestCase, Problem, printable
-from .leaves import FactoryError, PluginError, Registry, default_registry
+from .leaves import FactoryError, PluginError, Registry, default_registry, loads_user_code
 from .loader import load, load_json, schema_for, validate
 from .loader import MAX_WORK, check_work
 from .overlap import warning_lines
 from .progress import terminal_progress
-from .output import OutputError, check_target, commit, is_direct, same_file
+from .output import OutputError, check_distinct, check_target, commit, divert_stdout, emit, is_direct, own_stdout
+from .output import on_stdout, same_file, stdout_isatty
+from .supervise import supervised
 from .render import FORMATS, JSON_INDENT_LIMIT, GraphvizMissing, render_chunks
 from .render.dot import png_depth
 from .systems import SystemSpec
@@ -69,23 +71,17 @@ def _can_encode(stream: TextIO, text: str = "·…") -> bool:
 
 
 def _print(text: str, stream: TextIO | None = None) -> None:
-    """Print *text* with every unsafe character escaped (see :func:`~.errors.printable`).
-
-    Characters the stream cannot encode become ``?``-style replacements rather
-    than an exception (non-UTF-8 file names, a C locale).
-    """
-    stream = stream or sys.stdout
-    safe = printable(text, keep_newlines=True)
-    encoding = getattr(stream, "encoding", None) or "utf-8"
-    try:
-        safe.encode(encoding)
-    except (UnicodeEncodeError, LookupError):
-        safe = safe.encode(encoding, "backslashreplace").decode(encoding, "replace")
-    stream.write(safe)
+    """Print *text* with every unsafe character escaped (:func:`~.output.emit`); default: stdout."""
+    emit(text, stream)
 
 
 def _err(text: str) -> None:
     _print(text + "\n", sys.stderr)
+
+
+def _count(n: int, word: str) -> str:
+    """``1 file``, ``2 files``."""
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
 
 
 def _report_invalid(error: InvalidTestCase) -> int:
@@ -123,9 +119,10 @@ def _write_stdout(data: str | bytes | Iterable[str | bytes], fmt: str) -> None:
     """
     for chunk in [data] if isinstance(data, (str, bytes)) else data:
         if isinstance(chunk, bytes):
-            sys.stdout.flush()
-            sys.stdout.buffer.write(chunk)
-            sys.stdout.buffer.flush()
+            with own_stdout():
+                sys.stdout.flush()
+                sys.stdout.buffer.write(chunk)
+                sys.stdout.buffer.flush()
         else:
             _print(_stdout_text(chunk, fmt))
 
@@ -138,6 +135,13 @@ def _check_output(path: str | None, option: str, inputs: Sequence[str], made_lat
         return
     try:
         check_target(path, option, inputs, made_later=made_later)
+    except OutputError as problem:
+        raise UsageError(str(problem)) from None
+
+
+def _check_distinct(targets: Iterable[tuple[str, str | None]]) -> None:
+    try:
+        check_distinct(targets)
     except OutputError as problem:
         raise UsageError(str(problem)) from None
 
@@ -284,7 +288,7 @@ def _check_indent(args: argparse.Namespace, fmt: str) -> None:
 
 
 def _refuse_binary_to_terminal(fmt: str, path: str | None) -> None:
-    if fmt in BINARY_FORMATS and (path is None or path == "-" or same_file(path, "/dev/stdout")) and sys.stdout.isatty():
+    if fmt in BINARY_FORMATS and (path is None or path == "-" or same_file(path, "/dev/stdout")) and stdout_isatty():
         raise UsageError(f"--format {fmt} is binary and stdout is a terminal: write it with -o FILE.{fmt} or redirect stdout")
 
 
@@ -338,7 +342,14 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_validate(args: argparse.Namespace) -> int:
     files = _expand(args)
-    outcomes = _process(args, batch.job_validate, [(tuple(args.plugin or ()), args.max_variations)] * len(files), files)
+    try:
+        outcomes = _process(args, batch.job_validate, [(tuple(args.plugin or ()), args.max_variations)] * len(files), files)
+    except batch.Interrupted as stop:  # Ctrl-C/SIGTERM while a sweep's variations are checked: 130/143, not an error
+        for outcome in stop.outcomes:
+            _problems(outcome)
+        checked = sum(o.code != batch.NOT_RUN for o in stop.outcomes)
+        _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after checking {checked} of {_count(len(files), 'file')}")
+        return 128 + stop.signum
     if not args.quiet:
         for outcome in outcomes:
             if outcome.code == EXIT_OK:
@@ -447,6 +458,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             _check_out_dir(args, files, writes_json=True)
         suffixes = [".report.json", ".junit.xml"] + ([f".{plot}"] if plot else [])
         targets = _targets(args, files, suffixes)
+        _check_distinct([("--junit", args.junit)] + [("--out-dir", t + x) for t in targets if t for x in suffixes])
 
         def junit(outcomes: list[batch.Outcome]) -> None:
             if args.junit:
@@ -462,8 +474,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                       lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system, args.max_work,
                                     args.require_complete),
                       after=junit)  # fmt: skip
-    for option in ("json", "junit", "plot", "replay", "btlog", "signals_out"):
+    outputs_named = ("json", "junit", "plot", "replay", "btlog", "signals_out")
+    for option in outputs_named:
         _check_output(getattr(args, option), f"--{option.replace('_', '-')}", [args.file])
+    _check_distinct([(f"--{option.replace('_', '-')}", getattr(args, option)) for option in outputs_named])
     _replay_check(args)
     if args.signals_out:  # a bad suffix or a missing pyarrow: found out before the run
         from .run.export import ExportUnavailable, export_format, require_pyarrow
@@ -520,7 +534,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     outputs = [(t, _stdout_text(d, shown.get(t, "")).encode("utf-8") if t == "-" and isinstance(d, str) else d)
                for t, d in outputs]  # fmt: skip
     commit(outputs)  # all together, after everything was made: a failure leaves none
-    _print(report.table())
+    _print(report.table(), sys.stderr if on_stdout(t for t, _ in outputs) else None)  # stdout: the document only
     return EXIT_OK if report.passed else EXIT_FAIL
 
 
@@ -658,7 +672,20 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+_stopping: list[int] = []
+"""The signal that is stopping the CLI, once one arrived."""
+
+
 def _on_signal(signum: int, frame: Any) -> None:
+    """Stop the command: raise :class:`~.errors.Interrupt` for the first signal, ignore the ones after it.
+
+    Ctrl-C reaches a supervised command twice (from the terminal, and passed on by
+    the watching process, btgen_pytrees.supervise): a second signal must not break
+    the stopping the first one began (workers stopped, temporary files removed).
+    """
+    if _stopping:
+        return
+    _stopping.append(signum)
     raise Interrupt(signum)
 
 
@@ -684,9 +711,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_INVALID
+    if argv is None:  # the real CLI process
+        divert_stdout()  # stdout carries only what btgen_pytrees prints; user code's prints go to stderr
+        if loads_user_code(getattr(args, "plugin", None) or ()):  # no verdict, no exit 0 (btgen_pytrees.supervise)
+            return supervised(lambda: _command(args, real=True), _err)
+    return _command(args, real=argv is None)
+
+
+def _command(args: argparse.Namespace, *, real: bool) -> int:
+    """Run the parsed command; every outcome is an exit code (see :func:`main`).
+
+    *real*: this is the CLI's own process, so the signal handlers are ours; a
+    test calling :func:`main` with arguments keeps its own.
+    """
     func: Callable[[argparse.Namespace], int] = args.func
     handlers = {}
-    if argv is None:  # the real CLI process: our handlers; a test calling main() keeps its own
+    if real:
+        _stopping.clear()
         for signum in (signal.SIGINT, signal.SIGTERM):
             handlers[signum] = signal.signal(signum, _on_signal)
     try:
@@ -708,13 +749,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Interrupt as stop:
         _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}")
         return 128 + stop.signum
+    except batch.Interrupted as stop:
+        _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}")
+        return 128 + stop.signum
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
         _err(f"btgen_pytrees: internal error: {type(exc).__name__}: {exc}")
         return EXIT_INTERNAL
     except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt raised by user code
-        if isinstance(exc, KeyboardInterrupt) and argv is not None:
+        if isinstance(exc, KeyboardInterrupt) and not real:
             raise  # a test's own Ctrl-C
         _err(f"btgen_pytrees: error: user code (a plugin or leaf) raised {type(exc).__name__}" + (f": {exc}" if str(exc) else ""))
         return EXIT_FAIL

@@ -11,6 +11,8 @@ Rules (docs/limits.md, "Outputs"):
   them are complete are they renamed into place. A failure (or Ctrl-C, or
   SIGTERM turned into an exception by the CLI) removes the temporary files, so
   no half-written or stray output is left.
+* Two options never name one file (:func:`check_distinct`): ``--json X --junit X``
+  would leave X holding one of them.
 * Symbolic links are followed: the file the link points to is replaced, the link
   stays. Targets that are not regular files - ``/dev/null``, ``/dev/stdout``, a
   FIFO, anything under ``/dev`` or ``/proc`` - are written directly: renaming
@@ -21,9 +23,78 @@ from __future__ import annotations
 
 import os
 import stat
-from typing import Iterable, Iterator, Sequence, Union
+import sys
+from contextlib import contextmanager
+from typing import Iterable, Iterator, Sequence, TextIO, Union
 
-__all__ = ["OutputError", "check_target", "commit", "write_file", "same_file", "is_direct"]
+from .errors import printable
+
+__all__ = ["OutputError", "check_target", "check_distinct", "commit", "write_file", "same_file", "is_direct",
+           "emit", "on_stdout", "divert_stdout", "own_stdout", "stdout_isatty"]  # fmt: skip
+
+_stdout_fd: int | None = None
+"""The real standard output while :func:`divert_stdout` is in force (None: not diverted)."""
+
+
+def divert_stdout() -> None:
+    """Send file descriptor 1 to stderr for good; btgen_pytrees's own output reaches stdout through :func:`own_stdout`.
+
+    For the CLI's process only (it owns its file descriptors; the library never
+    calls this): whatever user code prints - a plugin at import, a leaf, a
+    system, C code, a worker process forked later - goes to stderr, so a
+    document on stdout (``show -f json``, ``run --json -``) is never mixed with it.
+    """
+    global _stdout_fd
+    if _stdout_fd is not None:
+        return
+    sys.stdout.flush()
+    _stdout_fd = os.dup(1)
+    os.dup2(2, 1)
+
+
+@contextmanager
+def own_stdout() -> Iterator[None]:
+    """File descriptor 1 is the real stdout for the duration (see :func:`divert_stdout`); no-op when not diverted."""
+    if _stdout_fd is None:
+        yield
+        return
+    sys.stdout.flush()
+    os.dup2(_stdout_fd, 1)
+    try:
+        yield
+    finally:
+        try:
+            sys.stdout.flush()
+        finally:
+            os.dup2(2, 1)
+
+
+def stdout_isatty() -> bool:
+    """Whether the real standard output is a terminal (diverted or not)."""
+    try:
+        return os.isatty(_stdout_fd) if _stdout_fd is not None else sys.stdout.isatty()
+    except (OSError, ValueError):
+        return False
+
+
+def emit(text: str, stream: TextIO | None = None) -> None:
+    """Print *text* with every unsafe character escaped (see :func:`~.errors.printable`); default: stdout.
+
+    Characters the stream cannot encode become ``\\xNN``-style replacements rather
+    than an exception (non-UTF-8 file names, a C locale).
+    """
+    target = stream or sys.stdout
+    safe = printable(text, keep_newlines=True)
+    encoding = getattr(target, "encoding", None) or "utf-8"
+    try:
+        safe.encode(encoding)
+    except (UnicodeEncodeError, LookupError):
+        safe = safe.encode(encoding, "backslashreplace").decode(encoding, "replace")
+    if stream is None:
+        with own_stdout():
+            target.write(safe)
+    else:
+        target.write(safe)
 
 
 class OutputError(ValueError):
@@ -84,6 +155,42 @@ def check_target(path: str, option: str, inputs: Sequence[str] = (), *, made_lat
         raise OutputError(f"{option} {path}: file is not writable")
 
 
+_STDOUT_NAMES = ("/dev/stdout", "/dev/fd/1", "/proc/self/fd/1")
+
+
+def _one_file(a: str, b: str) -> bool:
+    def stdout(path: str) -> bool:
+        return path == "-" or os.path.abspath(path) in _STDOUT_NAMES
+
+    if stdout(a) or stdout(b):
+        return stdout(a) and stdout(b)
+    return os.path.realpath(a) == os.path.realpath(b) or same_file(a, b)
+
+
+def on_stdout(paths: Iterable[str | None]) -> bool:
+    """Whether one of *paths* is standard output (``-``, ``/dev/stdout``): then stdout carries that document
+    only, and the command's table goes to stderr."""
+    return any(path and _one_file(path, "-") for path in paths)
+
+
+def check_distinct(targets: Iterable[tuple[str, str | None]]) -> None:
+    """Raise :class:`OutputError` when two ``(option, path)`` name one file.
+
+    Symlinks and hard links count, and ``-`` is ``/dev/stdout`` (two documents on
+    stdout cannot be read back). ``/dev/null`` may be named any number of times.
+    """
+    seen: list[tuple[str, str]] = []
+    for option, path in targets:
+        if not path:
+            continue
+        if path != "-" and os.path.abspath(path) == os.devnull:
+            continue
+        for other_option, other in seen:
+            if _one_file(path, other):
+                raise OutputError(f"{other_option} {other} and {option} {path}: the same file; give each output its own")
+        seen.append((option, path))
+
+
 Data = Union[str, bytes, Iterable[Union[str, bytes]]]
 """What :func:`commit` writes to a path: text, bytes, or an iterable of chunks of either
 (:func:`~.render.render_chunks`), taken one at a time while they are written."""
@@ -108,8 +215,6 @@ def _write_direct(path: str, data: Data) -> None:
 
 
 def _write_stdout(data: Data) -> None:
-    import sys
-
     sys.stdout.flush()
     for chunk in _chunks(data):
         sys.stdout.buffer.write(chunk)
@@ -146,11 +251,12 @@ def commit(outputs: Iterable[tuple[str, Data]]) -> list[str]:
                     fh.write(chunk)
         for tmp, final in staged:
             os.replace(tmp, final)
-        for path, data in direct:
-            if path == "-":
-                _write_stdout(data)
-            else:
-                _write_direct(path, data)
+        with own_stdout():  # '-' and /dev/stdout are the real stdout
+            for path, data in direct:
+                if path == "-":
+                    _write_stdout(data)
+                else:
+                    _write_direct(path, data)
     finally:
         for tmp, _ in staged:
             if os.path.lexists(tmp):

@@ -164,6 +164,8 @@ def test_reports_to_stdout_are_escaped_and_still_parse(tmp_path: pathlib.Path) -
         result = subprocess.run([sys.executable, "-m", "btgen_pytrees", "run", str(path), option, "-"],
                                 capture_output=True, text=True, timeout=60, cwd=ROOT)  # fmt: skip
         assert result.returncode == 1
-        document, _, table = result.stdout.rpartition("\ncriterion")  # the table comes last; a failure body may say "criterion ..."
+        document = result.stdout  # the document only: the table went to stderr
+        assert "criterion" in result.stderr
         visible(result.stdout)
+        visible(result.stderr)
         parse(document.split("\n", 1)[1] if option == "--junit" else document)

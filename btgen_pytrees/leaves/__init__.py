@@ -15,12 +15,12 @@ from typing import Iterable
 from . import plugins as _plugins
 from .builtin import register_builtins
 from .environment import Environment, unique_namespace
-from .plugins import PluginError
+from .plugins import PluginError, loads_user_code
 from .registry import Factory, FactoryError, LeafType, Registry
 
 __all__ = [
     "Environment", "Factory", "FactoryError", "LeafType", "PluginError", "Registry",
-    "builtin_registry", "default_registry", "unique_namespace",
+    "builtin_registry", "default_registry", "loads_user_code", "unique_namespace",
 ]  # fmt: skip
 
 

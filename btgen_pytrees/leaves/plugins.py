@@ -28,14 +28,14 @@ import os
 import sys
 from contextlib import contextmanager
 from functools import lru_cache
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 from types import ModuleType
 from typing import Callable, Iterable, Iterator
 
 from ..errors import is_interrupt
 from .registry import Registry
 
-__all__ = ["ENTRY_POINT_GROUP", "PluginError", "installed_plugins", "load_module_plugin"]
+__all__ = ["ENTRY_POINT_GROUP", "PluginError", "installed_plugins", "load_module_plugin", "loads_user_code"]
 
 ENTRY_POINT_GROUP = "btgen_pytrees.leaves"
 Register = Callable[[Registry], object]
@@ -46,10 +46,21 @@ class PluginError(RuntimeError):
 
 
 @lru_cache(maxsize=1)
+def _entry_points() -> tuple[EntryPoint, ...]:
+    """The installed entry points of the group, sorted by name (found once per process, nothing imported)."""
+    return tuple(sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: (ep.name, ep.value)))
+
+
+def loads_user_code(plugins: Iterable[str] = ()) -> bool:
+    """Whether a registry with *plugins* imports code from outside btgen_pytrees (plugins or installed entry points)."""
+    return bool(list(plugins)) or bool(_entry_points())
+
+
+@lru_cache(maxsize=1)
 def installed_plugins() -> tuple[tuple[str, Register], ...]:
     """The ``register`` callables of installed entry points, sorted by name (loaded once per process)."""
     found = []
-    for ep in sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: (ep.name, ep.value)):
+    for ep in _entry_points():
         try:
             func = ep.load()
         except BaseException as exc:  # noqa: BLE001 - any failure of a third-party plugin, SystemExit too

@@ -23,7 +23,7 @@ from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
 from ..errors import ExitCode, InvalidTestCase, Problem
 from ..loader import MAX_FILE_BYTES, parse_json, system_spec
-from ..output import commit, write_file
+from ..output import commit, emit, on_stdout, write_file
 from ..systems.base import SystemSpec
 from .case import MAX_VARIATIONS, Sweep, Variation, load_sweep
 from .executors import DaskExecutor, DaskUnavailable, check_address, scheduler_address
@@ -267,9 +267,9 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
 
         outputs.append((args.plot, map_bytes(report, plot_format(args.plot))))
     commit(outputs)
-    sys.stdout.write(report.summary())
+    emit(report.summary(), sys.stderr if on_stdout(t for t, _ in outputs) else None)  # escaped; stdout: the document only
     if executor is not None and executor.lost:
-        print(f"btgen_pytrees: {executor.lost}; the rest are reported as errors", file=sys.stderr)
+        emit(f"btgen_pytrees: {executor.lost}; the rest are reported as errors\n", sys.stderr)
     if any(o.code == ExitCode.INTERNAL for o in outcomes):
         return ExitCode.INTERNAL
     return EXIT_OK if report.passed else EXIT_FAIL

@@ -108,6 +108,11 @@ class Axis:
         return float(f"{x:.6g}")
 
 
+def _whole(value: Any) -> Any:
+    """``10`` for ``1e1``/``10.0``: JSON (and the schema's ``integer``) does not tell them apart."""
+    return int(value) if isinstance(value, float) and value.is_integer() else value
+
+
 @dataclass(frozen=True)
 class Variations:
     """A parsed (and shape-checked) ``variations`` block.
@@ -140,7 +145,7 @@ class Variations:
             axes.append(Axis(name, kind, spec))
         block = block or {}
         samples = block.get("samples", 0) if any(a.random for a in axes) else 0
-        return cls(tuple(axes), samples, block.get("seed", 0))
+        return cls(tuple(axes), _whole(samples), _whole(block.get("seed", 0)))
 
     @property
     def names(self) -> tuple[str, ...]:

@@ -1,0 +1,110 @@
+"""No verdict, no exit 0: the CLI runs a command that loads user code in a child process it watches.
+
+User code - a plugin at import or in ``register()``, a leaf, a system - can end
+its process with any status it likes: ``os._exit(0)`` cannot be caught, and a
+CI server would take the 0 for "every test passed". So when user code may be
+loaded, the CLI process forks; the child runs the command as usual (same
+standard streams, its own worker processes) and, when it has its exit code,
+hands it to the parent through a pipe before it exits. The parent never imports
+user code and exits only with a code it was handed: a child that ended without
+handing one over is reported as an error (exit 1, like a batch file whose worker
+died).
+
+Signals: Ctrl-C reaches both processes (the terminal signals its whole
+process group) and a SIGINT or SIGTERM sent to the parent alone is passed on
+to the child, which stops as it always does (130/143). For the CLI's process
+only; the library never forks.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from typing import Any, Callable
+
+__all__ = ["supervised", "EXIT_NO_VERDICT"]
+
+EXIT_NO_VERDICT = 1
+"""Exit code when the command's process ended without handing over its code (a verdict ``error``)."""
+
+
+def _death(status: int) -> str:
+    if os.WIFSIGNALED(status):
+        signum = os.WTERMSIG(status)
+        try:
+            name = signal.Signals(signum).name
+        except ValueError:
+            name = f"signal {signum}"
+        return f"was killed by {name}"
+    return f"exited with status {os.waitstatus_to_exitcode(status)}"
+
+
+def _die_with_parent() -> None:
+    """Linux: SIGTERM this process if the parent dies (killed with SIGKILL), so nothing runs on unwatched."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - no libc prctl
+        pass
+
+
+def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
+    """Run *work* in a forked child and return the code it returns.
+
+    Only a code the child hands over counts: if the child ends without one
+    (``os._exit``, a crash, killed), *on_error* gets one line saying so and the
+    result is :data:`EXIT_NO_VERDICT` (``128 + signum`` when SIGINT or SIGTERM
+    killed it). In the child this function returns *work*'s code after handing it
+    over, so the child then exits like the CLI always does (its ``atexit``
+    handlers and buffers included).
+    """
+    sys.stdout.flush()
+    sys.stderr.flush()
+    parent = os.getpid()
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: the command itself
+        os.close(read_end)
+        _die_with_parent()
+        if os.getppid() != parent:  # the parent died before prctl took effect
+            os._exit(EXIT_NO_VERDICT)
+        code = EXIT_NO_VERDICT
+        try:
+            code = work()
+        finally:
+            try:
+                os.write(write_end, bytes([code & 0xFF]))
+            finally:
+                os.close(write_end)
+        return code
+    os.close(write_end)
+
+    def forward(signum: int, frame: Any) -> None:
+        try:
+            os.kill(pid, signum)
+        except ProcessLookupError:
+            pass
+
+    previous = {s: signal.signal(s, forward) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        _, status = os.waitpid(pid, 0)  # EINTR is retried (PEP 475) after forward() ran
+        os.set_blocking(read_end, False)
+        try:
+            handed = os.read(read_end, 1)
+        except BlockingIOError:  # a grandchild still holds the pipe open, and nothing was written
+            handed = b""
+    finally:
+        os.close(read_end)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    if handed:
+        return handed[0]
+    if os.WIFSIGNALED(status) and os.WTERMSIG(status) in (signal.SIGINT, signal.SIGTERM):
+        return 128 + os.WTERMSIG(status)
+    on_error(f"btgen_pytrees: error: the command's process {_death(status)} before giving a verdict (user code - "
+             "a plugin, a leaf or a system - ended it, e.g. with os._exit); nothing it did counts")  # fmt: skip
+    return EXIT_NO_VERDICT

@@ -1,0 +1,261 @@
+"""Second round of attacks (issue 20; issue 23 items 12-16): no green by accident, nothing overwritten,
+clear errors, outputs that stay valid, a command line that says true things.
+
+Each test is the attack, then the promise checked: the exit code, the files left untouched, the
+output still parseable. The CLI runs in a subprocess with a scratch directory as its working
+directory, so the code under test is the one on ``PYTHONPATH`` (or installed).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from typing import Any
+
+import pytest
+from helpers import case, entry
+
+from btgen_pytrees import cli as cli_module
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+FIG1 = ROOT / "examples" / "fig1.json"
+FIG1_SWEEP = ROOT / "examples" / "fig1_sweep.json"
+
+EXITS_AT_IMPORT = "import os\nos._exit(0)\n"
+
+LEAVES = '''
+import os, sys
+import py_trees
+from py_trees.common import Status
+
+print("chatty: at import")
+os.write(1, b"chatty: fd 1 at import\\n")
+
+
+class Leaf(py_trees.behaviour.Behaviour):
+    def __init__(self, entry, env):
+        super().__init__(name=entry.name)
+        self.how = entry.action
+        print("chatty: in the factory")
+
+    def update(self):
+        print("chatty: in update")
+        os.write(1, b"chatty: fd 1 in update\\n")
+        if self.how == "exit0":
+            os._exit(0)
+        if self.how == "ready":
+            open(os.environ["ATTACK_READY"], "w").close()
+        return Status.SUCCESS
+
+
+def register(registry):
+    print("chatty: in register")
+    if os.environ.get("ATTACK_READY") and not os.environ.get("ATTACK_READY_IN_LEAF"):
+        open(os.environ["ATTACK_READY"], "w").close()
+    for action in ("talk", "exit0", "ready"):
+        registry.register(action, lambda e, env: Leaf(e, env), kind="behavior")
+'''
+
+
+def cli(cwd: pathlib.Path, *args: str, env: dict[str, str] | None = None, timeout: float = 180) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "btgen_pytrees", *args], capture_output=True, text=True,
+                          timeout=timeout, cwd=cwd, env=env)  # fmt: skip
+
+
+def write(path: pathlib.Path, data: Any) -> pathlib.Path:
+    path.write_text(json.dumps(data) if not isinstance(data, str) else data)
+    return path
+
+
+@pytest.fixture
+def work(tmp_path: pathlib.Path) -> pathlib.Path:
+    """A scratch folder with fig1, its sweep, a plugin that exits 0 at import and a chatty one."""
+    write(tmp_path / "fig1.json", FIG1.read_text())
+    write(tmp_path / "sweep.json", FIG1_SWEEP.read_text())
+    write(tmp_path / "exits.py", EXITS_AT_IMPORT)
+    write(tmp_path / "chatty.py", LEAVES)
+    write(tmp_path / "talk.json", case(entry("A", action="talk"), name="talk"))
+    return tmp_path
+
+
+def snapshot(folder: pathlib.Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file() and not p.is_symlink()}
+
+
+# -- 20.2: a run that produced no verdict never exits 0 ------------------------------------------
+
+
+@pytest.mark.parametrize("command", [
+    ("run", "sweep.json"),
+    ("run", "fig1.json", "--out-dir", "out"),
+    ("validate", "fig1.json"),
+    ("validate", "sweep.json"),
+    ("run", "fig1.json"),
+    ("run", "fig1.json", "--json", "r.json"),
+    ("show", "fig1.json", "-f", "json"),
+    ("expand", "sweep.json", "--out-dir", "out"),
+])  # fmt: skip
+def test_a_plugin_exiting_0_at_import_never_gives_exit_0(work: pathlib.Path, command: tuple[str, ...]) -> None:
+    before = snapshot(work)
+    result = cli(work, *command, "--plugin", "exits.py")
+    assert result.returncode == 1, (result.stdout, result.stderr)
+    assert "before giving a verdict" in result.stderr and "os._exit" in result.stderr
+    assert snapshot(work) == before and not (work / "out").exists()  # nothing written
+
+
+def test_a_leaf_exiting_0_in_a_single_run_is_an_error_not_a_pass(work: pathlib.Path) -> None:
+    write(work / "exit0.json", case(entry("A", action="exit0"), name="exit0"))
+    result = cli(work, "run", "exit0.json", "--plugin", "chatty.py", "--json", "r.json")
+    assert result.returncode == 1 and "exited with status 0 before giving a verdict" in result.stderr
+    assert not (work / "r.json").exists()
+
+
+def test_a_supervised_command_keeps_its_own_exit_code(work: pathlib.Path) -> None:
+    assert cli(work, "run", "talk.json", "--plugin", "chatty.py").returncode == 0
+    failing = write(work / "failing.json", json.loads((ROOT / "examples" / "fig1_failing.json").read_text()))
+    assert cli(work, "run", failing.name, "--plugin", "chatty.py").returncode == 1
+    assert cli(work, "run", "nothing.json", "--plugin", "chatty.py").returncode == 2
+
+
+# -- 20.5: two outputs on one path ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("options", [
+    ("--json", "X", "--junit", "X"),
+    ("--json", "X", "--junit", "./X"),
+    ("--btlog", "x.btlog", "--json", "x.btlog"),
+    ("--json", "X", "--junit", "link"),
+    ("--json", "-", "--junit", "/dev/stdout"),
+])  # fmt: skip
+@pytest.mark.parametrize("input_", ["fig1.json", "sweep.json"])
+def test_two_outputs_on_one_path_are_refused_before_running(work: pathlib.Path, options: tuple[str, ...], input_: str) -> None:
+    if "--btlog" in options and input_ == "sweep.json":
+        pytest.skip("--btlog takes one case")
+    (work / "X").write_text("mine")
+    (work / "x.btlog").write_text("mine too")
+    (work / "link").symlink_to("X")
+    before = snapshot(work)
+    result = cli(work, "run", input_, *options)
+    assert result.returncode == 2, result.stderr
+    assert "the same file" in result.stderr and "Traceback" not in result.stderr
+    assert snapshot(work) == before and result.stdout == ""
+
+
+def test_a_batch_junit_on_a_per_file_output_is_refused(work: pathlib.Path) -> None:
+    (work / "o").mkdir()
+    result = cli(work, "run", "fig1.json", "talk.json", "--out-dir", "o", "--junit", "o/fig1.junit.xml")
+    assert result.returncode == 2 and "the same file" in result.stderr
+    assert not any((work / "o").iterdir())
+
+
+def test_dev_null_may_take_several_outputs(work: pathlib.Path) -> None:
+    assert cli(work, "run", "fig1.json", "--json", "/dev/null", "--junit", "/dev/null").returncode == 0
+
+
+# -- 20.7: whole numbers written as 1e1 ---------------------------------------------------------
+
+
+def random_sweep(samples: Any) -> dict[str, Any]:
+    data = json.loads(FIG1_SWEEP.read_text())
+    data["variations"] = {"top_speed": {"uniform": [10, 40]}, "samples": samples, "seed": 3}
+    return data
+
+
+def test_samples_written_1e1_are_ten(work: pathlib.Path) -> None:
+    write(work / "ten.json", random_sweep(10))
+    write(work / "e1.json", random_sweep(1e1))
+    assert "e1" in (work / "e1.json").read_text() or "10.0" in (work / "e1.json").read_text()
+    result = cli(work, "validate", "e1.json")
+    assert result.returncode == 0 and "10 variations" in result.stdout, result.stderr
+    runs = [cli(work, "run", name, "--json", f"{name}.report") for name in ("ten.json", "e1.json")]
+    assert [r.returncode for r in runs][0] == runs[1].returncode in (0, 1), runs[1].stderr
+    reports = [json.loads((work / f"{name}.report").read_text()) for name in ("ten.json", "e1.json")]
+    assert [r["label"] for r in reports[0]["rows"]] == [r["label"] for r in reports[1]["rows"]]
+    assert len(reports[1]["rows"]) == 10
+    assert cli(work, "expand", "e1.json", "--out-dir", "cases").returncode == 0
+    assert len(list((work / "cases").iterdir())) == 10
+
+
+def test_samples_that_are_not_whole_are_a_clear_error(work: pathlib.Path) -> None:
+    write(work / "half.json", random_sweep(1.5))
+    for command in (("validate", "half.json"), ("run", "half.json"), ("expand", "half.json", "--out-dir", "c")):
+        result = cli(work, *command)
+        assert result.returncode == 2 and "half.json: /variations/samples:" in result.stderr, result.stderr
+        assert "Traceback" not in result.stderr
+
+
+def test_validate_prints_an_internal_error(work: pathlib.Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    def broken(path: str, *args: object) -> Any:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(cli_module.batch, "job_validate", broken)
+    assert cli_module.main(["validate", str(work / "fig1.json")]) == 3
+    assert "fig1.json: internal error: RuntimeError: boom" in capsys.readouterr().err
+
+
+# -- 20.9: a signal while a sweep's variations are checked -----------------------------------------
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("supervised", [False, True])
+def test_a_signal_during_a_sweeps_validation_is_130_or_143(work: pathlib.Path, signum: int, supervised: bool) -> None:
+    data = json.loads(FIG1_SWEEP.read_text())
+    data["variations"] = {"top_speed": {"from": 10, "to": 40, "step": 0.0006}}  # 50,001 variations: checking takes seconds
+    write(work / "big.json", data)
+    ready = work / "ready"
+    env = dict(os.environ, ATTACK_READY=str(ready))
+    plugin = ["--plugin", "chatty.py"] if supervised else []
+    process = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "validate", "big.json", "--max-variations", "100000", *plugin],
+                               cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    if supervised:  # the plugin says when the registry is made: the checks of the variations begin
+        deadline = time.monotonic() + 60
+        while not ready.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.3)
+    else:
+        time.sleep(3)
+    process.send_signal(signum)
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 128 + signum, err
+    assert f"interrupted by {signal.Signals(signum).name}" in err and "internal error" not in err
+
+
+# -- 20.14: the sweep summary escapes a name's terminal controls ----------------------------------
+
+
+def test_the_sweep_summary_escapes_terminal_controls(work: pathlib.Path) -> None:
+    data = json.loads(FIG1_SWEEP.read_text())
+    data["name"] = "s\x1b]0;owned\x07\u202e\u2028\x9bx"
+    write(work / "esc.json", data)
+    result = cli(work, "run", "esc.json", "--jobs", "2")
+    assert result.returncode == 1
+    for bad in ("\x1b", "\x07", "\u202e", "\u2028", "\x9b"):
+        assert bad not in result.stdout and bad not in result.stderr
+    assert "s\\x1b]0;owned\\x07\\u202e\\u2028\\x9bx" in result.stdout
+
+
+# -- 20.16: machine-readable stdout carries only the document ---------------------------------------
+
+
+@pytest.mark.parametrize("command, parse", [
+    (("show", "talk.json", "-f", "json"), json.loads),
+    (("run", "talk.json", "--json", "-"), json.loads),
+    (("run", "talk.json", "--junit", "-"), lambda text: ET.fromstring(text.split("\n", 1)[1])),
+    (("run", "sweep.json", "--json", "-", "--jobs", "1"), json.loads),
+    (("show", "talk.json", "-f", "btcpp"), lambda text: ET.fromstring(text.split("\n", 1)[1])),
+])  # fmt: skip
+def test_a_chatty_plugin_never_reaches_a_document_on_stdout(work: pathlib.Path, command: tuple[str, ...], parse: Any) -> None:
+    result = cli(work, *command, "--plugin", "chatty.py")
+    assert result.returncode in (0, 1), result.stderr
+    assert "chatty" not in result.stdout
+    parse(result.stdout)
+    assert "chatty: at import" in result.stderr and "chatty: fd 1 at import" in result.stderr
+    if command[0] == "run" and "sweep.json" not in command:
+        assert "chatty: fd 1 in update" in result.stderr
+        assert "PASS" in result.stderr  # the verdict table: on stderr when stdout carries the document

@@ -202,6 +202,20 @@ def test_validate_prints_an_internal_error(work: pathlib.Path, monkeypatch: pyte
 # -- 20.9: a signal while a sweep's variations are checked -----------------------------------------
 
 
+def wait_for_handlers(pid: int, timeout: float = 60) -> None:
+    """Until process *pid* catches SIGTERM: the CLI's handlers are installed (Linux: /proc/PID/status)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            status = pathlib.Path(f"/proc/{pid}/status").read_text()
+        except OSError:
+            return
+        caught = int(next(line for line in status.splitlines() if line.startswith("SigCgt:")).split()[1], 16)
+        if caught & (1 << (signal.SIGTERM - 1)):
+            return
+        time.sleep(0.02)
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 @pytest.mark.parametrize("supervised", [False, True])
 def test_a_signal_during_a_sweeps_validation_is_130_or_143(work: pathlib.Path, signum: int, supervised: bool) -> None:
@@ -219,7 +233,8 @@ def test_a_signal_during_a_sweeps_validation_is_130_or_143(work: pathlib.Path, s
             time.sleep(0.05)
         time.sleep(0.3)
     else:
-        time.sleep(3)
+        wait_for_handlers(process.pid)
+        time.sleep(0.3)
     process.send_signal(signum)
     out, err = process.communicate(timeout=60)
     assert process.returncode == 128 + signum, err
@@ -259,3 +274,47 @@ def test_a_chatty_plugin_never_reaches_a_document_on_stdout(work: pathlib.Path, 
     if command[0] == "run" and "sweep.json" not in command:
         assert "chatty: fd 1 in update" in result.stderr
         assert "PASS" in result.stderr  # the verdict table: on stderr when stdout carries the document
+
+
+# -- 20.4: expand never overwrites its own input --------------------------------------------------
+
+
+def two_variations(name: str = "s") -> dict[str, Any]:
+    data = json.loads(FIG1_SWEEP.read_text())
+    data["name"] = name
+    data["variations"] = {"top_speed": [10, 20]}
+    return data
+
+
+@pytest.mark.parametrize("attack", ["named_like_a_variation", "plain_case_into_its_folder", "symlink_to_the_input",
+                                    "hard_link_to_the_input", "out_dir_is_the_input"])  # fmt: skip
+def test_expand_never_overwrites_its_input(work: pathlib.Path, attack: str) -> None:
+    out = work / "out"
+    out.mkdir()
+    if attack == "named_like_a_variation":  # the input is where its first variation would be written
+        source = write(out / "s[top_speed=10].json", two_variations())
+        args = [str(source.relative_to(work)), "--out-dir", "out"]
+    elif attack == "plain_case_into_its_folder":
+        source = write(out / "fig1.json", FIG1.read_text())
+        args = ["out/fig1.json", "--out-dir", "out"]
+    elif attack == "out_dir_is_the_input":
+        source = write(work / "s.json", two_variations())
+        args = ["s.json", "--out-dir", "s.json"]
+    else:
+        source = write(work / "s.json", two_variations())
+        link = out / "s[top_speed=20].json"
+        link.symlink_to(source) if attack == "symlink_to_the_input" else os.link(source, link)
+        args = ["s.json", "--out-dir", "out"]
+    before = snapshot(work)
+    result = cli(work, "expand", *args)
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr and result.stderr.startswith("btgen_pytrees: --out-dir")
+    assert snapshot(work) == before  # nothing written: not the input, not the other variation
+    json.loads(source.read_text())
+
+
+def test_expand_writes_every_variation_and_says_so(work: pathlib.Path) -> None:
+    write(work / "s.json", two_variations())
+    result = cli(work, "expand", "s.json", "--out-dir", "out")
+    assert result.returncode == 0 and result.stdout == "2 cases written to out\n", result.stderr
+    assert sorted(p.name for p in (work / "out").iterdir()) == ["s[top_speed=10].json", "s[top_speed=20].json"]

@@ -23,7 +23,7 @@ from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
 from ..errors import ExitCode, InvalidTestCase, Problem
 from ..loader import MAX_FILE_BYTES, parse_json, system_spec
-from ..output import commit, emit, on_stdout, write_file
+from ..output import OutputError, check_target, commit, emit, on_stdout
 from ..systems.base import SystemSpec
 from .case import MAX_VARIATIONS, Sweep, Variation, load_sweep
 from .executors import DaskExecutor, DaskUnavailable, check_address, scheduler_address
@@ -63,19 +63,40 @@ def _load(args: argparse.Namespace, data: Mapping[str, Any] | None = None, syste
 
 
 def cmd_expand(args: argparse.Namespace, data: Mapping[str, Any] | None = None) -> int:
-    """Write every variation (or the one of *data*, chosen with ``--set``/``--params``) into ``--out-dir``."""
+    """Write every variation (or the one of *data*, chosen with ``--set``/``--params``) into ``--out-dir``:
+    all of them, or none.
+
+    Like ``run``'s outputs, every target is checked before anything is written: none
+    may be the input file (named alike, through a symlink or a hard link), be a
+    directory, or be named twice; ``--out-dir`` must be a directory or creatable.
+    """
+    out = args.out_dir
+    if os.path.lexists(out) and not os.path.isdir(out):
+        raise Refused(f"--out-dir {out}: exists and is not a directory")
     sweep = _load(args, data)
-    os.makedirs(args.out_dir, exist_ok=True)
-    count = 0
+    planned: list[tuple[str, str]] = []
+    taken: dict[str, str] = {}
     for variation in sweep:
         doc = _moved(dict(variation.document), sweep.source, args.out_dir)
         where = f"variation {variation.label} of {os.path.basename(sweep.source)}" if variation.label else None
         if where:
             doc["description"] = f"{doc['description']} ({where})" if doc.get("description") else where.capitalize()
-        path = os.path.join(args.out_dir, file_name(sweep.name, variation.label, variation.index))
-        write_file(path, json.dumps(doc, indent=2, ensure_ascii=False) + "\n")
-        count += 1
-    print(f"{count} case{'s' if count != 1 else ''} written to {args.out_dir}")
+        name = file_name(sweep.name, variation.label, variation.index)
+        if name.casefold() in taken:  # a case-insensitive disk would merge them
+            raise Refused(f"--out-dir {out}: variations [{taken[name.casefold()]}] and [{variation.label}] would both be written to {name}")
+        taken[name.casefold()] = variation.label
+        path = os.path.join(out, name)
+        try:
+            check_target(path, "--out-dir", [args.file], made_later=True)
+        except OutputError as problem:
+            raise Refused(str(problem)) from None
+        planned.append((path, json.dumps(doc, indent=2, ensure_ascii=False) + "\n"))
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as exc:
+        raise Refused(f"--out-dir {out}: cannot be created: {exc.strerror or exc}") from None
+    commit(planned)
+    emit(f"{len(planned)} case{'s' if len(planned) != 1 else ''} written to {out}\n")
     return EXIT_OK
 
 
@@ -249,8 +270,8 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
         outcomes = run_variations(sweep, variations, run_options(args), system, args.jobs, executor,
                                   batch.progress_stream())  # fmt: skip
     except batch.Interrupted as stop:
-        print(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {stop.finished} of "
-              f"{len(variations)} variations; nothing written", file=sys.stderr)  # fmt: skip
+        emit(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {stop.finished} of "
+             f"{len(variations)} variations; nothing written\n", sys.stderr)  # fmt: skip
         return 128 + stop.signum
     finally:
         if executor is not None:

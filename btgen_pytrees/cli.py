@@ -415,7 +415,7 @@ def _btlog_tree(args: argparse.Namespace, case: TestCase, registry: Registry) ->
 
     root = generate(case, registry=registry)
     try:
-        check_btlog(root)
+        check_btlog(root, case.timeout + case.tick)
     except BtlogError as problem:
         raise UsageError(f"--btlog {args.btlog}: {problem}") from None
     return root

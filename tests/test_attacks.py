@@ -318,3 +318,37 @@ def test_expand_writes_every_variation_and_says_so(work: pathlib.Path) -> None:
     result = cli(work, "expand", "s.json", "--out-dir", "out")
     assert result.returncode == 0 and result.stdout == "2 cases written to out\n", result.stderr
     assert sorted(p.name for p in (work / "out").iterdir()) == ["s[top_speed=10].json", "s[top_speed=20].json"]
+
+
+# -- 20.15: the .btlog stays well-formed and never wraps its clock ----------------------------------
+
+
+def test_btlog_xml_is_well_formed_whatever_the_names(work: pathlib.Path) -> None:
+    from btgen_pytrees.run.btlog import parse_btlog
+
+    data = case(entry("A"), entry("B", ["A"]), name="t\x00\x07\ufffe\x1b")
+    write(work / "names.json", data)
+    result = cli(work, "run", "names.json", "--btlog", "names.btlog")
+    assert result.returncode == 0, result.stderr
+    log = parse_btlog((work / "names.btlog").read_bytes())
+    names = ET.fromstring(log.xml)  # well-formed
+    assert any("\\x07" in (e.get("name") or "") for e in names.iter())
+
+
+def test_btlog_refuses_a_run_past_48_bits_of_microseconds_before_running(work: pathlib.Path) -> None:
+    write(work / "long.json", case(entry("A", duration=1), name="long", tick=1e4, timeout=3e8))  # 30,000 ticks, ~9.5 years
+    result = cli(work, "run", "long.json", "--btlog", "long.btlog")
+    assert result.returncode == 2 and "48-bit microseconds" in result.stderr, result.stderr
+    assert not (work / "long.btlog").exists() and "PASS" not in result.stdout  # refused before the run
+
+
+def test_btlog_bytes_never_wrap_a_time(work: pathlib.Path) -> None:
+    import btgen_pytrees
+    from btgen_pytrees.run import run
+    from btgen_pytrees.run.btlog import BtlogError, btlog_bytes
+
+    loaded = btgen_pytrees.load(case(entry("A", duration=2.9e8), name="long", tick=1e4, timeout=3e8))
+    report = run(loaded)
+    assert report.trace is not None and max(report.trace.times) > 2**48 / 1e6
+    with pytest.raises(BtlogError, match="48-bit"):
+        btlog_bytes(report.trace, btgen_pytrees.generate(loaded))

@@ -42,16 +42,19 @@ from dataclasses import dataclass
 
 import py_trees
 
+from ..errors import xml_safe
 from ..render.btcpp import btcpp_document
 from ..render.info import walk
 from .trace import RunTrace
 
-__all__ = ["btlog_bytes", "check_btlog", "parse_btlog", "Btlog", "BtlogError", "MAGIC", "MAX_UID"]
+__all__ = ["btlog_bytes", "check_btlog", "parse_btlog", "Btlog", "BtlogError", "MAGIC", "MAX_UID", "MAX_TIME_US"]
 
 MAGIC = b"BTCPP4-FileLogger2"
 PROTOCOL = 1
 MAX_UID = 0xFFFF
 """A uid has 16 bits: a tree of more elements cannot be logged."""
+MAX_TIME_US = 2**48 - 1
+"""A transition's time has 48 bits of microseconds (about 8.9 years): a run that may last longer cannot be logged."""
 
 _GENERIC = ("Action", "Condition", "Decorator", "Control", "SubTree")
 
@@ -67,8 +70,17 @@ def _nodes(tree: ET.Element) -> list[ET.Element]:
     return nodes
 
 
-def check_btlog(root: py_trees.behaviour.Behaviour) -> None:
-    """Raise :class:`BtlogError` if *root* cannot be logged (before a run, so a run is not wasted)."""
+def _check_time(seconds: float) -> None:
+    if not round(seconds * 1_000_000) <= MAX_TIME_US:
+        raise BtlogError(f"the run may last {seconds:g} s; a .btlog stamps transitions with 48-bit microseconds, "
+                         f"at most {MAX_TIME_US / 1e6:,.0f} s (about 8.9 years)")  # fmt: skip
+
+
+def check_btlog(root: py_trees.behaviour.Behaviour, last: float | None = None) -> None:
+    """Raise :class:`BtlogError` if *root* cannot be logged, or a run that may last until *last*
+    seconds could not be stamped (before a run, so a run is not wasted)."""
+    if last is not None:
+        _check_time(last)
     _nodes(btcpp_document(root).tree)
 
 
@@ -94,7 +106,7 @@ def btlog_bytes(trace: RunTrace | None, root: py_trees.behaviour.Behaviour) -> b
     tree and no transitions.
 
     Raises:
-        BtlogError: the export has more than 65,535 nodes
+        BtlogError: the export has more than 65,535 nodes, or the run lasted past 2**48 microseconds
     """
     exported = btcpp_document(root)
     tree = exported.tree
@@ -110,7 +122,7 @@ def btlog_bytes(trace: RunTrace | None, root: py_trees.behaviour.Behaviour) -> b
     node_uid = [uids.get(id(exported.elements.get(id(b))), 0) for b in behaviours]
     wrapped = {i: tuple(uids[id(e)] for e in exported.wrappers[id(b)]) for i, b in enumerate(behaviours)
                if id(b) in exported.wrappers}  # fmt: skip
-    xml = ET.tostring(exported.document, encoding="unicode").encode("utf-8")
+    xml = xml_safe(ET.tostring(exported.document, encoding="unicode")).encode("utf-8")  # well-formed whatever the names
     out = bytearray(MAGIC)
     out.append(PROTOCOL)
     out += struct.pack("<i", len(xml))
@@ -125,8 +137,10 @@ def btlog_bytes(trace: RunTrace | None, root: py_trees.behaviour.Behaviour) -> b
 
     if trace is None:
         return bytes(out)
+    if trace.times:
+        _check_time(max(trace.times))  # never wrap silently
     for tick, i, code in zip(trace.ticks, trace.nodes_changed, trace.statuses):
-        usec = max(0, round(trace.times[tick] * 1_000_000)) & 0xFFFF_FFFF_FFFF
+        usec = max(0, round(trace.times[tick] * 1_000_000))
         if i in wrapped:
             wrapper, keep, always = wrapped[i]
             if code == 0:

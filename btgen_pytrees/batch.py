@@ -24,14 +24,15 @@ from typing import Any, Callable, Iterable, Sequence, TextIO
 from .construct import generate
 from .errors import MAX_LINE, MAX_PROBLEMS, ExitCode, Interrupt, InvalidTestCase, is_interrupt, printable, shorten, xml_safe
 from .leaves import FactoryError, PluginError, default_registry
-from .loader import MAX_WORK, check_work, load, load_json, validate
+from .loader import MAX_WORK, check_work, load, load_json, parse_json, validate
 from .overlap import warning_lines
 from .render import GraphvizMissing, render
 from .sweep import MAX_VARIATIONS, has_variations, load_sweep
+from .sweep.variations import Variations
 from .timeline import timeline
 
 __all__ = ["Outcome", "Interrupted", "guard", "expand", "output_names", "process", "summary", "job_validate", "job_show",
-           "job_run", "EXIT_ERROR", "NOT_RUN"]  # fmt: skip
+           "job_run", "defaults_only", "EXIT_ERROR", "NOT_RUN"]  # fmt: skip
 
 EXIT_ERROR = ExitCode.FAIL
 """Code of a file whose user code (plugin, factory, leaf) raised or killed its worker: like a run's verdict ``error``."""
@@ -211,7 +212,21 @@ def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | N
     (``run --system``). *max_work* is the work budget (default :data:`~.loader.MAX_WORK`)."""
     registry = default_registry(plugins)
     case = load(path, registry=registry, system=system)
-    return run_case(path, case, registry, target, plot, junit, max_work, require_complete)
+    outcome = run_case(path, case, registry, target, plot, junit, max_work, require_complete)
+    with open(path, "rb") as fh:  # read again only to tell a sweep, whose defaults alone ran
+        return defaults_only(outcome, fh.read())
+
+
+def defaults_only(outcome: Outcome, raw: bytes) -> Outcome:
+    """*outcome* of a file of a batch; if the file (its bytes *raw*) is a sweep, its row says that only its
+    defaults ran, and how many variations it has (``run`` of that file alone, or ``--variations``, runs them)."""
+    if b'"variations"' not in raw:
+        return outcome
+    data = parse_json(raw, outcome.path)
+    if has_variations(data):
+        count = Variations.parse(data["variations"]).count
+        outcome.summary += f"; sweep: defaults only; run it alone or with --variations for its {count:,} variations"
+    return outcome
 
 
 def run_case(path: str, case: Any, registry: Any, target: str | None, plot: str | None = None,

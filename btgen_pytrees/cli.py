@@ -33,7 +33,7 @@ from .render.dot import png_depth
 from .systems import SystemSpec
 from .falsify.command import add_arguments as falsify_arguments, cmd_falsify
 from .sweep.case import has_variations
-from .sweep.command import Refused, dask_batch_args, run_sweep
+from .sweep.command import Refused, dask_batch_args, job_run_variations, run_sweep
 from .sweep.command import cmd_expand as expand_sweep
 from .sweep.overrides import ParameterError, choose, given_values, parse_set, read_params
 from .timeline import timeline
@@ -438,6 +438,31 @@ def _replay_outputs(args: argparse.Namespace, report: Report, case: TestCase, re
     return outputs
 
 
+def _is_sweep(path: str) -> bool:
+    """Whether *path* holds a sweep (a readable test case with ``variations``); a file that cannot be read is not."""
+    try:
+        return has_variations(load_json(path))
+    except InvalidTestCase:
+        return False
+
+
+def _sweep_alone(args: argparse.Namespace, path: str, target: str | None, plot: str | None, system: SystemSpec | None) -> int:
+    """A batch of one sweep file (``run S.json --out-dir D``, a folder holding only S.json): the sweep's
+    variations, as ``run S.json`` runs them, with the sweep's report, JUnit and map as its ``--out-dir`` files."""
+    alone = argparse.Namespace(**vars(args))
+    alone.file = path
+    alone.json = alone.junit = alone.plot = None
+    extra: list[tuple[str, str]] = []
+    if target is not None:
+        alone.json, alone.junit = target + ".report.json", target + ".junit.xml"
+        alone.plot = f"{target}.{plot}" if plot else None
+        if args.junit:
+            extra.append((args.junit, "junit"))
+    else:
+        alone.junit = args.junit
+    return run_sweep(alone, load_json(path), system, extra=extra, out_dir=args.out_dir)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from .run import run
 
@@ -465,6 +490,15 @@ def cmd_run(args: argparse.Namespace) -> int:
                 commit([(args.junit, batch.merge_junit(outcomes))])
 
         system = _system(args)
+        if len(files) == 1 and _is_sweep(files[0]):  # a sweep given alone runs its variations, in any form
+            return _sweep_alone(args, files[0], targets[0], plot, system)
+        if args.variations:
+            if args.executor == "dask":
+                raise UsageError("--variations runs each sweep on one local worker; with --executor dask run each sweep alone")
+            return _batch(args, files, job_run_variations,
+                          lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system, args.max_work,
+                                     args.require_complete, args.max_variations),
+                          after=junit)  # fmt: skip
         if args.executor == "dask":  # on a Dask cluster (btgen_pytrees.sweep.command)
             executor, job, job_args = dask_batch_args(args, files, targets, plot, system)
             args.dask = executor
@@ -650,6 +684,8 @@ def _parser() -> argparse.ArgumentParser:
                      help=f"work budget of a run: ticks x (entries + criteria + 10), default {MAX_WORK:.0e}; a case over it is refused before running")  # fmt: skip
     run.add_argument("--btlog", metavar="PATH", help="write the run as a BehaviorTree.CPP .btlog (FileLogger2) for Groot2")
     run.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
+    run.add_argument("--variations", action="store_true",
+                     help="batch mode: run every variation of each sweep file, on one worker per file (default: a sweep in a batch of several files runs its defaults, and its row says so; a sweep given alone always runs its variations)")  # fmt: skip
     run.add_argument("--executor", choices=("local", "dask"), default="local",
                      help="where runs execute: local worker processes (--jobs), or a Dask cluster (--scheduler)")  # fmt: skip
     run.add_argument("--scheduler", metavar="ADDRESS",

@@ -352,3 +352,41 @@ def test_btlog_bytes_never_wrap_a_time(work: pathlib.Path) -> None:
     assert report.trace is not None and max(report.trace.times) > 2**48 / 1e6
     with pytest.raises(BtlogError, match="48-bit"):
         btlog_bytes(report.trace, btgen_pytrees.generate(loaded))
+
+
+# -- 20.3 / 23.16: a sweep in batch mode ----------------------------------------------------------
+
+
+def test_a_sweep_given_alone_to_run_out_dir_runs_its_variations(work: pathlib.Path) -> None:
+    result = cli(work, "run", "sweep.json", "--out-dir", "o", "--jobs", "2")
+    assert result.returncode == 1, result.stderr  # 10 of its 28 variations fail (the defaults pass)
+    assert "28 variations of top_speed x limit: 18 pass, 10 fail" in result.stdout
+    report = json.loads((work / "o" / "sweep.report.json").read_text())
+    assert len(report["rows"]) == 28 and report["verdict"] == "fail"
+    suites = ET.fromstring((work / "o" / "sweep.junit.xml").read_text())
+    assert len(list(suites.iter("testcase"))) == 28
+
+
+def test_a_folder_holding_one_sweep_runs_its_variations_with_a_batch_junit(work: pathlib.Path) -> None:
+    (work / "d").mkdir()
+    (work / "sweep.json").rename(work / "d" / "sweep.json")
+    result = cli(work, "run", "d", "--out-dir", "o", "--junit", "all.xml", "--jobs", "2")
+    assert result.returncode == 1 and "18 pass, 10 fail" in result.stdout, result.stderr
+    assert len(list(ET.fromstring((work / "all.xml").read_text()).iter("testcase"))) == 28
+    assert (work / "o" / "sweep.report.json").exists()
+
+
+def test_a_sweep_in_a_batch_of_several_says_defaults_only(work: pathlib.Path) -> None:
+    result = cli(work, "run", "sweep.json", "fig1.json", "--out-dir", "o", "--jobs", "2")
+    assert result.returncode == 0
+    row = next(line for line in result.stdout.splitlines() if line.startswith("sweep.json"))
+    assert "sweep: defaults only; run it alone or with --variations for its 28 variations" in row
+
+
+def test_variations_runs_every_sweep_of_a_batch(work: pathlib.Path) -> None:
+    result = cli(work, "run", "sweep.json", "fig1.json", "--out-dir", "o", "--jobs", "2", "--variations", "--junit", "all.xml")
+    assert result.returncode == 1, result.stderr
+    row = next(line for line in result.stdout.splitlines() if line.startswith("sweep.json"))
+    assert "FAIL" in row and "28 variations: 18 pass, 10 fail" in row
+    assert len(json.loads((work / "o" / "sweep.report.json").read_text())["rows"]) == 28
+    assert len(list(ET.fromstring((work / "all.xml").read_text()).iter("testcase"))) == 28 + 4  # fig1: 3 criteria + execute

@@ -22,16 +22,16 @@ from .. import batch
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
 from ..errors import ExitCode, InvalidTestCase, Problem
-from ..loader import MAX_FILE_BYTES, parse_json, system_spec
+from ..loader import MAX_FILE_BYTES, load_json, parse_json, system_spec
 from ..output import OutputError, check_target, commit, emit, on_stdout
 from ..systems.base import SystemSpec
-from .case import MAX_VARIATIONS, Sweep, Variation, load_sweep
+from .case import MAX_VARIATIONS, Sweep, Variation, has_variations, load_sweep
 from .executors import DaskExecutor, DaskUnavailable, check_address, scheduler_address
 from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk, job_run_shipped
 from .report import SweepReport
 from .shipping import Files, ShippingError, read_files
 
-__all__ = ["run_sweep", "run_variations", "dask_batch_args", "cmd_expand", "file_name", "make_executor", "sweep_report", "Refused"]
+__all__ = ["run_sweep", "run_variations", "job_run_variations", "dask_batch_args", "cmd_expand", "file_name", "make_executor", "sweep_report", "Refused"]
 
 EXIT_OK, EXIT_FAIL, EXIT_INVALID = ExitCode.OK, ExitCode.FAIL, ExitCode.INVALID
 _UNSAFE = re.compile(r"[^A-Za-z0-9._=,+\-\[\]]")
@@ -252,12 +252,15 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
             for part in (o.parts if isinstance(o, ChunkOutcome) else [o] * len(c))]  # a lost chunk: each its error
 
 
-def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = None) -> int:
+def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = None, *,
+              extra: Sequence[tuple[str, str]] = (), out_dir: str | None = None) -> int:  # fmt: skip
     """``run CASE`` for a case with variations; exit 0 all pass, 1 any did not, 2 invalid (nothing ran).
 
     The CLI has checked the output paths and the plot suffix; the outputs are
     written together at the end (all or none), after every variation ran.
     *system* (``run --system``) replaces the case's system in every variation.
+    *extra*: more ``(path, "json"|"junit")`` outputs (a batch's ``--junit`` beside
+    its ``--out-dir`` files); *out_dir* is made just before they are written.
     """
     for option in ("trace", "replay"):
         if getattr(args, option, None):
@@ -287,6 +290,10 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
         from .plot import map_bytes
 
         outputs.append((args.plot, map_bytes(report, plot_format(args.plot))))
+    for path, kind in extra:
+        outputs.append((path, report.to_json() if kind == "json" else report.to_junit()))
+    if out_dir is not None:
+        os.makedirs(out_dir, exist_ok=True)
     commit(outputs)
     emit(report.summary(), sys.stderr if on_stdout(t for t, _ in outputs) else None)  # escaped; stdout: the document only
     if executor is not None and executor.lost:
@@ -294,6 +301,44 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
     if any(o.code == ExitCode.INTERNAL for o in outcomes):
         return ExitCode.INTERNAL
     return EXIT_OK if report.passed else EXIT_FAIL
+
+
+def job_run_variations(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
+                       junit: bool = False, system: Any = None, max_work: int | None = None,
+                       require_complete: bool = False, max_variations: int | None = None) -> batch.Outcome:  # fmt: skip
+    """``run FILE... --variations``: a sweep runs every variation here, one after the other; any other file
+    as :func:`btgen_pytrees.batch.job_run`.
+
+    A sweep's outputs are its sweep report (``<target>.report.json``), its JUnit
+    (a testcase per variation) and, with *plot*, its verdict map; its row counts
+    the verdicts. The variations run in this worker process, one at a time (a
+    worker starts no workers of its own); each is guarded on its own.
+    """
+    data = load_json(path)
+    if not has_variations(data):
+        return batch.job_run(path, plugins, target, plot, junit, system, max_work, require_complete)
+    registry = default_registry(plugins)
+    limit = max_variations if max_variations is not None else MAX_VARIATIONS
+    sweep = load_sweep(data, registry=registry, max_variations=limit, source_name=path, system=system, max_work=max_work)
+    variations = list(sweep)
+    options = RunOptions(tuple(plugins), max_work, require_complete)  # every run option, as for the sweep run alone
+    items = [(v.label, v.document, resolved_system(v.document, path, system)) for v in variations]
+    done = job_chunk(path, options, path, items)
+    report = sweep_report(sweep, variations, done.parts)
+    outputs: list[tuple[str, str | bytes]] = []
+    if target is not None:
+        outputs = [(f"{target}.report.json", report.to_json()), (f"{target}.junit.xml", report.to_junit())]
+        if plot is not None:
+            from .plot import map_bytes
+
+            outputs.append((f"{target}.{plot}", map_bytes(report, plot)))
+    counts = ", ".join(f"{n} {v}" for v, n in report.counts.items())
+    code = 3 if any(p.code == 3 for p in done.parts) else EXIT_OK if report.passed else EXIT_FAIL
+    outcome = batch.Outcome(path, code, f"{len(variations):,} variations: {counts}", outputs=outputs,
+                            result="" if code != 3 else "ERROR")  # fmt: skip
+    if junit:
+        outcome.junit = report.to_junit()
+    return outcome
 
 
 def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequence[str | None],

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
-from ..batch import Outcome, guard, run_case
+from ..batch import Outcome, defaults_only, guard, run_case
 from ..errors import ExitCode, InvalidTestCase
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
@@ -130,7 +130,7 @@ def job_run_shipped(path: str, options: RunOptions, raw: bytes | None, problems:
         raise InvalidTestCase(problems, path)
     registry = _registry(options.local_plugins())
     case = validate(parse_json(raw, path), path, registry, options.local_system(system))
-    return run_case(path, case, registry, target, plot, junit, options.max_work, options.require_complete)
+    return defaults_only(run_case(path, case, registry, target, plot, junit, options.max_work, options.require_complete), raw)
 
 
 @dataclass

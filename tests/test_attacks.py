@@ -390,3 +390,48 @@ def test_variations_runs_every_sweep_of_a_batch(work: pathlib.Path) -> None:
     assert "FAIL" in row and "28 variations: 18 pass, 10 fail" in row
     assert len(json.loads((work / "o" / "sweep.report.json").read_text())["rows"]) == 28
     assert len(list(ET.fromstring((work / "all.xml").read_text()).iter("testcase"))) == 28 + 4  # fig1: 3 criteria + execute
+
+
+# -- 20.12: every SUMO input file is bounded in size and nesting ---------------------------------------
+
+
+def sumo_copy(work: pathlib.Path, extra_routes: str) -> pathlib.Path:
+    folder = work / "sumo"
+    folder.mkdir()
+    for item in (ROOT / "examples" / "sumo").iterdir():
+        if item.is_file():
+            (folder / item.name).write_bytes(item.read_bytes())
+    (folder / "extra.rou.xml").write_text(extra_routes)
+    (folder / "acc.sumocfg").write_text('<configuration><input><net-file value="road.net.xml"/>'
+                                        '<route-files value="acc.rou.xml,extra.rou.xml"/></input></configuration>')  # fmt: skip
+    return folder
+
+
+def test_a_route_file_nested_200k_deep_is_refused_at_load(work: pathlib.Path) -> None:
+    depth = 200_000
+    folder = sumo_copy(work, "<routes>" + "<x>" * depth + "</x>" * depth + "</routes>")
+    assert (folder / "extra.rou.xml").stat().st_size > 1_000_000
+    for command in ("validate", "run"):
+        result = cli(folder, command, "acc_hard_brake.json", timeout=60)
+        assert result.returncode == 2, result.stderr
+        assert "extra.rou.xml:1: elements nested more than 32 levels deep" in result.stderr
+    from btgen_pytrees.systems.sumo.scenario import read_scenario
+
+    assert read_scenario(str(folder / "cut_in.sumocfg")).problems == ()  # the other scenario is fine
+
+
+def test_the_files_a_scenario_names_are_bounded_together(work: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from btgen_pytrees.systems.sumo import scenario
+
+    folder = sumo_copy(work, "<routes/>")
+    assert read_problems(folder) == ()
+    total = sum((folder / name).stat().st_size for name in ("acc.sumocfg", "road.net.xml", "acc.rou.xml", "extra.rou.xml"))
+    monkeypatch.setattr(scenario, "MAX_SCENARIO_BYTES", total - 1)
+    (problem,) = read_problems(folder)
+    assert problem == f"acc.sumocfg: the configuration and the files it names are {total} bytes together; the limit is {total - 1}"
+
+
+def read_problems(folder: pathlib.Path) -> tuple[str, ...]:
+    from btgen_pytrees.systems.sumo.scenario import read_scenario
+
+    return read_scenario(str(folder / "acc.sumocfg")).problems

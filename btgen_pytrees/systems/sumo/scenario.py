@@ -35,10 +35,18 @@ from typing import Callable, Iterator, Mapping
 
 from ...text import closest
 
-__all__ = ["Scenario", "ScenarioError", "read_scenario", "OPTIONS", "parse_options", "MAX_XML_BYTES"]
+__all__ = ["Scenario", "ScenarioError", "read_scenario", "OPTIONS", "parse_options", "MAX_XML_BYTES",
+           "MAX_SCENARIO_BYTES", "MAX_XML_DEPTH"]  # fmt: skip
 
 MAX_XML_BYTES = 64 * 1024 * 1024
 """Largest configuration, network, route or additional file read (64 MiB)."""
+
+MAX_SCENARIO_BYTES = 128 * 1024 * 1024
+"""Largest total of the configuration and every file it names (128 MiB): SUMO reads them all before a run."""
+
+MAX_XML_DEPTH = 32
+"""Deepest nesting of elements in any of those files. SUMO's own files nest 5 levels at most
+(``routes/vehicle/route/stop/param``); SUMO takes minutes to load a small file nested 200,000 deep."""
 
 INPUTS = ("net-file", "route-files", "additional-files")
 """Options of a ``.sumocfg`` that name input files (each checked, then read)."""
@@ -212,6 +220,9 @@ def _elements(path: str, shown: str) -> Iterator[tuple[str, Mapping[str, str], i
 
     def start(tag: str, attributes: dict[str, str]) -> None:
         depth[0] += 1
+        if depth[0] > MAX_XML_DEPTH:
+            raise ScenarioError(f"{shown}:{parser.CurrentLineNumber}: elements nested more than {MAX_XML_DEPTH} "
+                                "levels deep (SUMO's own files nest 5 at most)")  # fmt: skip
         found.append((tag, attributes, parser.CurrentLineNumber, depth[0]))
 
     def end(_tag: str) -> None:
@@ -264,6 +275,7 @@ def read_scenario(config: str) -> Scenario:
         net = inputs.get("net-file", [])
         if len(net) != 1:
             raise ScenarioError(f"{shown}: needs exactly one 'net-file' (found {len(net)})")
+        _check_total([config, *net, *inputs.get("route-files", []), *inputs.get("additional-files", [])], shown)
         lanes: dict[str, int] = {}
         signals: dict[str, int] = {}
         shapes: list[tuple[str, float, tuple[float, ...]]] = []
@@ -278,6 +290,20 @@ def read_scenario(config: str) -> Scenario:
     return Scenario(config, demand.vehicles, frozenset(demand.routes), frozenset(demand.types), lanes,
                     demand.route_edges, signals, options, shapes=tuple(shapes),
                     files=tuple(dict.fromkeys(files)))  # fmt: skip
+
+
+def _check_total(paths: list[str], shown: str) -> None:
+    """Raise if the files SUMO would read add up to more than :data:`MAX_SCENARIO_BYTES` (each file is
+    checked on its own when it is read)."""
+    total = 0
+    for path in dict.fromkeys(paths):
+        try:
+            total += os.stat(path).st_size
+        except OSError:
+            continue  # reading it says why
+    if total > MAX_SCENARIO_BYTES:
+        raise ScenarioError(f"{shown}: the configuration and the files it names are {total} bytes together; "
+                            f"the limit is {MAX_SCENARIO_BYTES}")  # fmt: skip
 
 
 _SECTIONS = frozenset({

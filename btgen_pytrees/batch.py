@@ -22,7 +22,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterable, Sequence, TextIO
 
 from .construct import generate
-from .errors import MAX_LINE, MAX_PROBLEMS, ExitCode, Interrupt, InvalidTestCase, is_interrupt, printable, shorten, xml_safe
+from .errors import MAX_LINE, MAX_PROBLEMS, ExitCode, Interrupt, InvalidTestCase, is_interrupt, plural, printable, shorten, xml_safe
 from .leaves import FactoryError, PluginError, default_registry
 from .loader import MAX_WORK, check_work, load, load_json, parse_json, validate
 from .overlap import warning_lines
@@ -56,6 +56,7 @@ class Outcome:
         result: the word in the summary's result column (default: from *code*)
         outputs: ``(target, data)`` the job produced; the parent process writes
             them (workers never write files, so a killed worker leaves none half-written)
+        warnings: the file's warning lines (printed on stderr unless ``--quiet``)
     """
 
     path: str
@@ -66,6 +67,7 @@ class Outcome:
     result: str = ""
     outputs: list[tuple[str, str | bytes]] = field(default_factory=list, repr=False)
     junit: str = field(default="", repr=False)
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def word(self) -> str:
@@ -185,11 +187,11 @@ def job_validate(path: str, plugins: Sequence[str], max_variations: int | None =
     registry = default_registry(plugins)
     data = load_json(path)
     case = validate(data, path, registry)
-    found = f"ok: {len(case.entries)} entries, {len(case.criteria)} criteria"
+    found = f"ok: {plural(len(case.entries), 'entry', 'entries')}, {plural(len(case.criteria), 'criterion', 'criteria')}"
     if has_variations(data):  # a sweep: every variation is checked
         limit = max_variations if max_variations is not None else MAX_VARIATIONS
-        found += f", {load_sweep(data, registry=registry, max_variations=limit, source_name=path).count} variations"
-    return Outcome(path, ExitCode.OK, found, problems=warning_lines(case))
+        found += f", {plural(load_sweep(data, registry=registry, max_variations=limit, source_name=path).count, 'variation')}"
+    return Outcome(path, ExitCode.OK, found, warnings=warning_lines(case))
 
 
 def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, max_depth: int | None,
@@ -199,8 +201,8 @@ def job_show(path: str, plugins: Sequence[str], fmt: str, target: str | None, ma
     case = load(path, registry=registry)
     text = render(generate(case, registry=registry), timeline(case), fmt, max_depth=max_depth, indent=indent)
     if target is None:
-        return Outcome(path, ExitCode.OK, fmt, outputs=[("-", text)], problems=warning_lines(case))
-    return Outcome(path, ExitCode.OK, fmt, outputs=[(target, text)], problems=warning_lines(case))
+        return Outcome(path, ExitCode.OK, fmt, outputs=[("-", text)], warnings=warning_lines(case))
+    return Outcome(path, ExitCode.OK, fmt, outputs=[(target, text)], warnings=warning_lines(case))
 
 
 def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
@@ -225,7 +227,7 @@ def defaults_only(outcome: Outcome, raw: bytes) -> Outcome:
     data = parse_json(raw, outcome.path)
     if has_variations(data):
         count = Variations.parse(data["variations"]).count
-        outcome.summary += f"; sweep: defaults only; run it alone or with --variations for its {count:,} variations"
+        outcome.summary += f"; sweep: defaults only; run it alone or with --variations for its {plural(count, 'variation')}"
     return outcome
 
 
@@ -251,7 +253,7 @@ def run_case(path: str, case: Any, registry: Any, target: str | None, plot: str 
             outputs.append((f"{target}.{plot}", plot_bytes(report, case, plot)))
     line = f"{report.verdict} after {report.duration:g} s" + (f": {report.message}" if report.message else "")
     word = "" if report.verdict in ("pass", "fail") else report.verdict.upper()
-    outcome = Outcome(path, ExitCode.OK if report.passed else ExitCode.FAIL, line, result=word, outputs=outputs, problems=warning_lines(case))
+    outcome = Outcome(path, ExitCode.OK if report.passed else ExitCode.FAIL, line, result=word, outputs=outputs, warnings=warning_lines(case))
     if junit:
         outcome.junit = report.to_junit()
     return outcome
@@ -516,7 +518,7 @@ def summary(outcomes: Sequence[Outcome]) -> str:
     for o in sorted(outcomes, key=lambda o: order.index(o.word) if o.word in order else len(order)):
         counts[o.word] = counts.get(o.word, 0) + 1
     lines.append("")
-    lines.append(f"{len(outcomes)} files: " + ", ".join(f"{n} {w.lower()}" for w, n in counts.items()))
+    lines.append(f"{plural(len(outcomes), 'file')}: " + ", ".join(f"{n} {w.lower()}" for w, n in counts.items()))
     return "\n".join(lines) + "\n"
 
 

@@ -14,6 +14,7 @@ import fnmatch
 import os
 import signal
 import sys
+from difflib import get_close_matches
 from typing import TYPE_CHECKING, Any, Callable, Iterable, NoReturn, Sequence, TextIO
 
 from . import __version__
@@ -212,7 +213,7 @@ def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.
         outcomes = _process(args, job, [job_args(i) for i in range(len(files))], files, on_result=write)
     except batch.Interrupted as stop:
         for outcome in stop.outcomes:
-            _problems(outcome)
+            _problems(outcome, args.quiet)
         _print(batch.summary(stop.outcomes))
         _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}; files not run are marked NOT RUN")
         return 128 + stop.signum
@@ -223,8 +224,11 @@ def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.
     return max(o.code for o in outcomes)
 
 
-def _problems(outcome: batch.Outcome) -> None:
+def _problems(outcome: batch.Outcome, quiet: bool = False) -> None:
+    """A file's problems on stderr, then its warnings (capped where they were made) unless *quiet*."""
     for line in outcome.problems[: MAX_PROBLEMS + 1]:
+        _err(line)
+    for line in [] if quiet else outcome.warnings:
         _err(line)
 
 
@@ -240,7 +244,7 @@ def _process(args: argparse.Namespace, job: Callable[..., batch.Outcome], job_ar
         if executor is not None:
             executor.close()
     for outcome in outcomes:
-        _problems(outcome)
+        _problems(outcome, getattr(args, "quiet", False))
     return outcomes
 
 
@@ -278,6 +282,9 @@ def _show_format(args: argparse.Namespace) -> str:
         return str(args.format)
     if args.output and args.output != "-" and not is_direct(args.output):
         suffix = os.path.splitext(args.output)[1].lower()
+        if suffix and suffix not in SUFFIX_FORMATS:  # text in an .html file would be a lie
+            raise UsageError(f"-o {args.output}: {suffix} names no format; use {' '.join(SUFFIX_FORMATS)}, "
+                             "or give --format for another name")  # fmt: skip
         return SUFFIX_FORMATS.get(suffix, "unicode")
     return "unicode" if args.output or _can_encode(sys.stdout) else "ascii"
 
@@ -323,7 +330,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     registry = _registry(args)
     chosen = _chosen(args, registry)
     case = load(args.file, registry=registry) if chosen is None else validate(chosen, args.file, registry=registry)
-    for line in warning_lines(case):
+    for line in [] if args.quiet else warning_lines(case):
         _err(line)
     root = generate(case, registry=registry)
     try:  # the text views are drawn while they are written (render_chunks)
@@ -346,7 +353,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         outcomes = _process(args, batch.job_validate, [(tuple(args.plugin or ()), args.max_variations)] * len(files), files)
     except batch.Interrupted as stop:  # Ctrl-C/SIGTERM while a sweep's variations are checked: 130/143, not an error
         for outcome in stop.outcomes:
-            _problems(outcome)
+            _problems(outcome, args.quiet)
         checked = sum(o.code != batch.NOT_RUN for o in stop.outcomes)
         _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after checking {checked} of {_count(len(files), 'file')}")
         return 128 + stop.signum
@@ -466,6 +473,9 @@ def _sweep_alone(args: argparse.Namespace, path: str, target: str | None, plot: 
 def cmd_run(args: argparse.Namespace) -> int:
     from .run import run
 
+    if args.scheduler and args.executor != "dask":
+        raise UsageError("--scheduler applies to --executor dask only; add --executor dask to run there")
+
     files = _single(args)
     if files is not None:
         if args.json or args.trace:
@@ -535,7 +545,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     registry = _registry(args)
     case = validate(data, args.file, registry=registry, system=_system(args))
     check_work(case, args.max_work)  # before anything runs: a tree whose one tick exceeds the budget
-    for line in warning_lines(case):
+    for line in [] if args.quiet else warning_lines(case):
         _err(line)
     logged = _btlog_tree(args, case, registry)
     trace = (lambda line: _err(line)) if args.trace else None
@@ -638,10 +648,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"btgen_pytrees {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="{show,validate,run,expand,falsify,schema}", parser_class=_Parser)
-    many = argparse.ArgumentParser(add_help=False)
-    many.add_argument("--jobs", "-j", type=int, default=min(os.cpu_count() or 1, MAX_JOBS), metavar="N",
+    jobs = argparse.ArgumentParser(add_help=False)
+    jobs.add_argument("--jobs", "-j", type=int, default=min(os.cpu_count() or 1, MAX_JOBS), metavar="N",
                       help=f"with several files or a sweep: worker processes, 1 to {MAX_JOBS} (default: the number of CPUs)")  # fmt: skip
+    many = argparse.ArgumentParser(add_help=False, parents=[jobs])
     many.add_argument("--out-dir", metavar="DIR", help="write each file's output into DIR (made when first written)")
+    many.add_argument("--quiet", "-q", action="store_true", help="do not print warnings (overlapping writes of a signal)")
     plugin = argparse.ArgumentParser(add_help=False)
     plugin.add_argument("--plugin", action="append", metavar="MODULE|FILE.py",
                         help="import MODULE (the current directory is importable) or the Python file FILE.py and call its register(registry) to add leaves or systems (repeatable)")  # fmt: skip
@@ -660,9 +672,9 @@ def _parser() -> argparse.ArgumentParser:
                       help=f"json format: indent N spaces per level (0 to {MAX_INDENT}; 0: a key per line), or 'none': compact, one line (default: 2 up to {JSON_INDENT_LIMIT:,} nodes, compact above)")  # fmt: skip
     show.set_defaults(func=cmd_show)
 
-    validate = sub.add_parser("validate", parents=[plugin, many], help="check test case files; exit 0 only if all are valid")
+    validate = sub.add_parser("validate", parents=[plugin, jobs], help="check test case files; exit 0 only if all are valid")
     validate.add_argument("files", nargs="+", metavar="FILE", help="test case JSON files or directories")
-    validate.add_argument("--quiet", "-q", action="store_true", help="print problems only")
+    validate.add_argument("--quiet", "-q", action="store_true", help="print problems only (no 'ok' lines, no warnings)")
     validate.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
     validate.set_defaults(func=cmd_validate)
 
@@ -725,6 +737,12 @@ def _on_signal(signum: int, frame: Any) -> None:
     raise Interrupt(signum)
 
 
+def _looks_like_a_command(word: str) -> bool:
+    """A first word that is not a file and not named like one (no ``.``, no ``/``): a mistyped command
+    (``runn``), not a test case to show; ``missing.json`` still gets the loader's "cannot read" message."""
+    return not os.path.lexists(word) and "." not in word and "/" not in word and os.sep not in word
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; return the exit code.
 
@@ -738,6 +756,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INVALID
     args_list = list(sys.argv[1:] if argv is None else argv)
     if args_list and args_list[0] not in COMMANDS and not args_list[0].startswith("-"):
+        word = args_list[0]
+        if _looks_like_a_command(word):
+            hint = get_close_matches(word, COMMANDS, n=1)
+            _err(f"btgen_pytrees: unknown command {word!r}" + (f" (did you mean {hint[0]!r}?)" if hint else
+                 f"; the commands are {', '.join(COMMANDS)}, or give a test case FILE to show it"))  # fmt: skip
+            return EXIT_INVALID
         args_list.insert(0, "show")
     parser = _parser()
     try:

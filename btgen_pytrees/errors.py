@@ -22,7 +22,7 @@ from typing import Any, Iterable, Union
 
 from .text import MAX_MESSAGE, shorten
 
-__all__ = ["Problem", "by_place", "InvalidTestCase", "ExitCode", "Interrupt", "is_interrupt", "pointer", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
+__all__ = ["Problem", "by_place", "InvalidTestCase", "ExitCode", "Interrupt", "is_interrupt", "pointer", "plural", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
 
 PathPart = Union[str, int]
 
@@ -66,6 +66,15 @@ def _escape(match: re.Match[str]) -> str:
     if 0xDC80 <= code <= 0xDCFF:  # a byte os.fsdecode could not decode (surrogateescape)
         return f"\\x{code - 0xDC00:02x}"
     return f"\\x{code:02x}" if code < 256 else f"\\u{code:04x}"
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``1 tick``, ``2 ticks``, ``1 criterion``/``3 criteria`` (*many*: the plural when it is not *word* + s).
+
+    >>> plural(1, "file"), plural(0, "file"), plural(1, "entry", "entries")
+    ('1 file', '0 files', '1 entry')
+    """
+    return f"{n:,} {word if n == 1 else many or word + 's'}"
 
 
 def printable(text: str, *, limit: int | None = None, keep_newlines: bool = False) -> str:

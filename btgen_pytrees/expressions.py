@@ -39,8 +39,8 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, Iterable, Mapping
 
-__all__ = ["Expression", "ExpressionError", "parse", "why_false", "bounds", "conjunction", "disjunction", "RESERVED",
-           "MAX_LENGTH"]  # fmt: skip
+__all__ = ["Expression", "ExpressionError", "parse", "why_false", "format_number", "bounds", "conjunction",
+           "disjunction", "RESERVED", "MAX_LENGTH"]  # fmt: skip
 
 MAX_LENGTH = 1000
 """Longest accepted expression, in characters (keeps parsing and products bounded)."""
@@ -474,8 +474,16 @@ _OPS: dict[type, Callable[[Any, Any], bool]] = {
 }  # fmt: skip
 
 
-def _number(value: float) -> str:
-    return f"{value:.6g}"
+def format_number(value: Any) -> str:
+    """A value as messages show it: numbers to 6 significant digits, like a margin (``1.635`` for
+    ``1.6350000000000051``); booleans and whole numbers as they are, anything else as ``repr``.
+
+    >>> format_number(1.6350000000000051), format_number(True), format_number(12), format_number("a")
+    ('1.635', 'True', '12', "'a'")
+    """
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return repr(value)
 
 
 def why_false(expression: Expression, values: Mapping[str, Any]) -> str:
@@ -539,7 +547,7 @@ def _explain(node: ast.expr, env: Mapping[str, Any], dotted: Mapping[str, str]) 
                     margin = 0.0 if isinstance(op, ast.NotEq) else abs(float(left) - float(right))
                 except (TypeError, ValueError, OverflowError):
                     return [f"{link} false"]
-                return [f"{link} false by {_number(margin)}"]
+                return [f"{link} false by {format_number(margin)}"]
             left, left_node = right, right_node
         return []
     return [f"{_text(node, dotted)} false"]

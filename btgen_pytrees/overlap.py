@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from .errors import Problem
+from .errors import MAX_LINE, MAX_PROBLEMS, Problem, printable
 from .leaves import Registry
 from .model import Entry, TestCase
 from .order import positions
@@ -60,9 +60,13 @@ class _OutOfBudget(Exception):
     pass
 
 
-def warning_lines(case: TestCase) -> list[str]:
-    """The case's warnings as the CLI prints them on stderr: ``FILE: /pointer: warning: message``."""
-    return [Problem(w.path, f"warning: {w.message}", w.cause).render(case.source) for w in case.warnings]
+def warning_lines(case: TestCase, limit: int = MAX_PROBLEMS) -> list[str]:
+    """The case's warnings as the CLI prints them on stderr: ``FILE: /pointer: warning: message``; the
+    first *limit*, then ``FILE: … and N more warnings`` (every command prints the same lines)."""
+    lines = [Problem(w.path, f"warning: {w.message}", w.cause).render(case.source) for w in case.warnings[:limit]]
+    if len(case.warnings) > limit:
+        lines.append(printable(f"{case.source}: … and {len(case.warnings) - limit} more warnings", limit=MAX_LINE))
+    return lines
 
 
 def overlapping_writes(entries: Sequence[Entry], registry: Registry) -> list[Problem]:

@@ -58,7 +58,7 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
     Only a code the child hands over counts: if the child ends without one
     (``os._exit``, a crash, killed), *on_error* gets one line saying so and the
     result is :data:`EXIT_NO_VERDICT` (``128 + signum`` when SIGINT or SIGTERM
-    killed it). In the child this function returns *work*'s code after handing it
+    killed it, with the line the command itself prints then). In the child this function returns *work*'s code after handing it
     over, so the child then exits like the CLI always does (its ``atexit``
     handlers and buffers included).
     """
@@ -103,7 +103,8 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
             signal.signal(signum, handler)
     if handed:
         return handed[0]
-    if os.WIFSIGNALED(status) and os.WTERMSIG(status) in (signal.SIGINT, signal.SIGTERM):
+    if os.WIFSIGNALED(status) and os.WTERMSIG(status) in (signal.SIGINT, signal.SIGTERM):  # before its handlers
+        on_error(f"btgen_pytrees: interrupted by {signal.Signals(os.WTERMSIG(status)).name}")
         return 128 + os.WTERMSIG(status)
     on_error(f"btgen_pytrees: error: the command's process {_death(status)} before giving a verdict (user code - "
              "a plugin, a leaf or a system - ended it, e.g. with os._exit); nothing it did counts")  # fmt: skip

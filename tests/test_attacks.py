@@ -435,3 +435,89 @@ def read_problems(folder: pathlib.Path) -> tuple[str, ...]:
     from btgen_pytrees.systems.sumo.scenario import read_scenario
 
     return read_scenario(str(folder / "acc.sumocfg")).problems
+
+
+# -- 23.12: an unknown command is not a file name ---------------------------------------------------
+
+
+def test_a_mistyped_command_is_an_unknown_command(work: pathlib.Path) -> None:
+    result = cli(work, "runn", "fig1.json")
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr == "btgen_pytrees: unknown command 'runn' (did you mean 'run'?)\n"
+    other = cli(work, "frobnicate")
+    assert other.returncode == 2 and "unknown command 'frobnicate'; the commands are show, validate" in other.stderr
+    assert "cannot read file" in cli(work, "missing.json").stderr  # named like a file: the loader says why
+    (work / "runn").write_text(FIG1.read_text())  # a file of that name is shown
+    assert cli(work, "runn").returncode == 0
+
+
+# -- 23.13: options accepted and then ignored are errors ---------------------------------------------
+
+
+@pytest.mark.parametrize("command, says", [
+    (("run", "fig1.json", "--scheduler", "tcp://127.0.0.1:1"), "--scheduler applies to --executor dask only"),
+    (("validate", "fig1.json", "--out-dir", "o"), "unrecognized arguments: --out-dir o"),
+    (("show", "fig1.json", "-o", "t.html"), "-o t.html: .html names no format"),
+])  # fmt: skip
+def test_an_option_that_would_be_ignored_is_an_error(work: pathlib.Path, command: tuple[str, ...], says: str) -> None:
+    before = snapshot(work)
+    result = cli(work, *command)
+    assert result.returncode == 2 and says in result.stderr and result.stdout == ""
+    assert snapshot(work) == before and not (work / "o").exists()
+
+
+# -- 23.14: overlap warnings: one cap everywhere, -q silences them --------------------------------------
+
+
+def overlapping(n: int) -> dict[str, Any]:
+    return case(*[entry(f"S{i}", action="set", signal="x", value=i) for i in range(n)], name="ov")
+
+
+@pytest.mark.parametrize("command", [("run", "ov.json"), ("run", "ov.json", "fig1.json"), ("validate", "ov.json"),
+                                     ("show", "ov.json"), ("show", "ov.json", "fig1.json")])  # fmt: skip
+def test_overlap_warnings_are_capped_alike_and_quiet_silences_them(work: pathlib.Path, command: tuple[str, ...]) -> None:
+    write(work / "ov.json", overlapping(250))
+    lines = [line for line in cli(work, *command).stderr.splitlines() if line.startswith("ov.json")]
+    assert len(lines) == 101 and lines[-1] == "ov.json: … and 149 more warnings", lines[-3:]
+    assert all(": warning: " in line for line in lines[:100])
+    quiet = cli(work, *command, "-q")
+    assert quiet.returncode == 0 and "warning" not in quiet.stderr, quiet.stderr
+
+
+# -- 23.15: messages say true, tidy things -----------------------------------------------------------
+
+
+def test_values_in_messages_are_rounded_like_the_margin(work: pathlib.Path) -> None:
+    data = case(entry("A", action="set", signal="gap", value=1.6350000000000051),
+                criteria=[{"id": "R1", "type": "record", "expect": "gap >= 2"}], name="gap", timeout=1)  # fmt: skip
+    write(work / "gap.json", data)
+    result = cli(work, "run", "gap.json")
+    assert result.returncode == 1
+    assert "gap=1.635)" in result.stdout and "1.6350000000000051" not in result.stdout, result.stdout
+    assert "false by 0.365" in result.stdout
+
+
+def test_one_tick_one_file_and_an_underlined_last_column(work: pathlib.Path) -> None:
+    write(work / "one.json", case(entry("A", action="set", signal="x", value=1), name="one", timeout=1))
+    single = cli(work, "run", "one.json")
+    assert "(1 tick)" in single.stdout, single.stdout
+    header, rule = single.stdout.splitlines()[:2]
+    assert header.endswith("message") and rule.endswith("  -------")
+    batch = cli(work, "run", "one.json", "--out-dir", "o")
+    assert "1 file: 1 ok" in batch.stdout
+    assert "ok: 1 entry, 0 criteria" in cli(work, "validate", "one.json").stdout
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("plugin", [(), ("--plugin", "chatty.py")])
+def test_sigterm_says_what_sigint_says(work: pathlib.Path, signum: int, plugin: tuple[str, ...]) -> None:
+    write(work / "long.json", case(entry("A", duration=4000), name="long", tick=0.001, timeout=5000))
+    process = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "run", "long.json", "--max-work", "1e12", *plugin], cwd=work,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    wait_for_handlers(process.pid)
+    time.sleep(0.5)
+    process.send_signal(signum)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 128 + signum
+    said = [line for line in err.splitlines() if not line.startswith("chatty")]
+    assert said == [f"btgen_pytrees: interrupted by {signal.Signals(signum).name}"]

@@ -32,7 +32,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from ..expressions import ExpressionError, conjunction, why_false
+from ..expressions import ExpressionError, conjunction, format_number, why_false
 from ..model import Criterion
 from .environment import Environment
 from .simulated import reached
@@ -104,7 +104,7 @@ class Oracle(py_trees.behaviour.Behaviour):
         self.judged += 1
         self.outcome = Outcome("inconclusive" if ok else "fail", now, message, values, margin)
         if not ok:
-            shown = ", ".join(f"{k}={v!r}" for k, v in sorted(values.items()))
+            shown = ", ".join(f"{k}={format_number(v)}" for k, v in sorted(values.items()))  # rounded like the margin
             self.outcome.message = f"{message} at {now:.6g} s ({shown})" if shown else f"{message} at {now:.6g} s"
             self.feedback_message = self.outcome.message
         return ok

@@ -11,7 +11,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Sequence
 
-from ..errors import xml_safe
+from ..errors import plural, xml_safe
 from ..expressions import conjunction, disjunction
 from ..model import label
 
@@ -239,11 +239,11 @@ class Report:
         rows.append(execute)
         widths = [max(len(r[i]) for r in rows) for i in range(5)]
         lines = ["  ".join(c.ljust(w) for c, w in zip(r[:5], widths)) + ("  " + r[5] if r[5] else "") for r in rows]
-        lines.insert(1, "  ".join("-" * w for w in widths))
+        lines.insert(1, "  ".join("-" * w for w in widths) + "  " + "-" * len(rows[0][5]))
         verdict = f"{self.test}: {self.verdict.upper()}"
         if self.verdict == "pass" and self.incomplete:
             verdict += f" (timeline incomplete: {self.incomplete})"
-        verdict += f" after {self.duration:g} s ({self.ticks} ticks)"
+        verdict += f" after {self.duration:g} s ({plural(self.ticks, 'tick')})"
         if self.message:
             verdict += f" - {self.message}"
         why = "".join(f"  {line}\n" for line in self.explanation) if self.explanation else ""

@@ -21,7 +21,7 @@ from typing import Any, Callable, Mapping, Sequence
 from .. import batch
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
-from ..errors import ExitCode, InvalidTestCase, Problem
+from ..errors import ExitCode, InvalidTestCase, Problem, plural
 from ..loader import MAX_FILE_BYTES, load_json, parse_json, system_spec
 from ..output import OutputError, check_target, commit, emit, on_stdout
 from ..systems.base import SystemSpec
@@ -274,7 +274,7 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
                                   batch.progress_stream())  # fmt: skip
     except batch.Interrupted as stop:
         emit(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {stop.finished} of "
-             f"{len(variations)} variations; nothing written\n", sys.stderr)  # fmt: skip
+             f"{plural(len(variations), 'variation')}; nothing written\n", sys.stderr)  # fmt: skip
         return 128 + stop.signum
     finally:
         if executor is not None:
@@ -334,7 +334,7 @@ def job_run_variations(path: str, plugins: Sequence[str], target: str | None, pl
             outputs.append((f"{target}.{plot}", map_bytes(report, plot)))
     counts = ", ".join(f"{n} {v}" for v, n in report.counts.items())
     code = 3 if any(p.code == 3 for p in done.parts) else EXIT_OK if report.passed else EXIT_FAIL
-    outcome = batch.Outcome(path, code, f"{len(variations):,} variations: {counts}", outputs=outputs,
+    outcome = batch.Outcome(path, code, f"{plural(len(variations), 'variation')}: {counts}", outputs=outputs,
                             result="" if code != 3 else "ERROR")  # fmt: skip
     if junit:
         outcome.junit = report.to_junit()

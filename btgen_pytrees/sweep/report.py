@@ -18,6 +18,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
+from ..errors import plural
 from ..run.report import margin_text
 from .variations import Value, format_value
 
@@ -106,7 +107,7 @@ class SweepReport:
     def summary(self, shown: int = 10) -> str:
         """Counts per verdict, then the worst variations with why they did not pass."""
         counts = ", ".join(f"{n} {v}" for v, n in self.counts.items())
-        lines = [f"{self.test}: {len(self.rows)} variations of {' x '.join(self.varied) or 'nothing'}: {counts}"]
+        lines = [f"{self.test}: {plural(len(self.rows), 'variation')} of {' x '.join(self.varied) or 'nothing'}: {counts}"]
         bad = [r for r in worst_first(self.rows) if r["verdict"] != "pass"]
         if bad:
             lines.append("")

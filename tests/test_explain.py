@@ -40,7 +40,7 @@ def test_a_failed_criterion_says_expression_values_time_and_margin_everywhere() 
     data = case(entry("A", action="ramp", signal="speed", to=40, duration=4), signals={"speed": 0},
                 criteria=[dict(crit("R", "record", "speed <= 30"), name="limit")])  # fmt: skip
     report = run_case(data)
-    why = "speed <= 30 false by 1 at 3.1 s (speed=31.0)"
+    why = "speed <= 30 false by 1 at 3.1 s (speed=31)"
     assert report.verdict == "fail" and report.oracles[0].message == why
     table = report.table()
     assert why in table and f"why:\n  criterion R (limit) (record) failed: {why}\n" in table

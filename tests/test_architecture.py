@@ -59,6 +59,7 @@ LAYERS: dict[str, int] = {
     "btgen_pytrees.falsify": 8,
     # L9: the faces: command line, pytest plugin, the package's own face
     "btgen_pytrees.cli": 9,
+    "btgen_pytrees.supervise": 9,
     "btgen_pytrees.pytest_plugin": 9,
     "btgen_pytrees.pytest_cases": 9,
     "btgen_pytrees.__main__": 9,

@@ -503,6 +503,8 @@ def test_one_tick_one_file_and_an_underlined_last_column(work: pathlib.Path) -> 
     assert "(1 tick)" in single.stdout, single.stdout
     header, rule = single.stdout.splitlines()[:2]
     assert header.endswith("message") and rule.endswith("  -------")
+    cli(work, "run", "one.json", "--plot", "one.svg", "--replay", "one.html")
+    assert "(1 tick)" in (work / "one.svg").read_text() and "(1 tick)" in (work / "one.html").read_text()
     batch = cli(work, "run", "one.json", "--out-dir", "o")
     assert "1 file: 1 ok" in batch.stdout
     assert "ok: 1 entry, 0 criteria" in cli(work, "validate", "one.json").stdout

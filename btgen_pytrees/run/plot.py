@@ -37,7 +37,7 @@ import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Sequence
 
-from ..errors import printable, shorten, xml_safe
+from ..errors import plural, printable, shorten, xml_safe
 from ..expressions import bounds
 from ..model import TestCase
 from ..output import write_file
@@ -218,7 +218,7 @@ def _plot_figure(report: Report, case: TestCase, patterns: Sequence[str] | None)
         for at in failures:
             ax.axvline(at, color=COLOURS["fail"], linewidth=1.2, alpha=0.8)
     top.set_xlim(-0.02 * span, span * 1.04)
-    verdict = printable(f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({report.ticks} ticks)")
+    verdict = printable(f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({plural(report.ticks, 'tick')})")
     colour = COLOURS["pass"] if report.passed else COLOURS["fail"]
     fig.suptitle(verdict, color=colour, fontsize=12, fontweight="bold")
     if subtitle:

@@ -42,6 +42,7 @@ from py_trees.composites import Parallel, Selector
 from py_trees.composites import Sequence as PySequence
 from py_trees.decorators import Decorator
 
+from ..errors import plural
 from ..model import TestCase
 from ..render.dot import STYLES
 from ..render.info import annotation, depth_for, role, type_name, walk
@@ -114,7 +115,7 @@ def _page_data(report: Report, root: py_trees.behaviour.Behaviour, depth: int | 
     trace = report.trace
     nodes = _tree_data(root)
     index = {row[4]: i for i, row in enumerate(nodes) if row[4]}
-    headline = f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({report.ticks} ticks)"
+    headline = f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({plural(report.ticks, 'tick')})"
     names = select(sorted(trace.signals), signals) if trace is not None else []
     scene = getattr(trace, "scene", None)
     data: dict[str, Any] = {

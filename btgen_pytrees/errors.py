@@ -74,7 +74,7 @@ def plural(n: int, word: str, many: str | None = None) -> str:
     >>> plural(1, "file"), plural(0, "file"), plural(1, "entry", "entries")
     ('1 file', '0 files', '1 entry')
     """
-    return f"{n:,} {word if n == 1 else many or word + 's'}"
+    return f"{n} {word if n == 1 else many or word + 's'}"
 
 
 def printable(text: str, *, limit: int | None = None, keep_newlines: bool = False) -> str:

@@ -154,7 +154,7 @@ def test_failure_is_the_explanation_not_a_traceback(cases: pytest.Pytester) -> N
     out = result.stdout.str()
     result.stdout.fnmatch_lines([
         "*_ fig1_failing _*",
-        "fig1_failing: FAIL - criterion R1 (record) failed: speed <= 15 false by 1 at 1.6 s (speed=16.0)",
+        "fig1_failing: FAIL - criterion R1 (record) failed: speed <= 15 false by 1 at 1.6 s (speed=16)",
         "criterion*type*expect*verdict*",
         "R1*record*speed <= 15*fail*speed <= 15 false by 1 at 1.6 s*",
         "why:",

@@ -13,9 +13,9 @@ bytes. matplotlib is the ``plot`` extra, imported only here.
 
 from __future__ import annotations
 
-import io
 from typing import Any, Mapping
 
+from ..run.plot import figure_bytes
 from .search import Search
 
 __all__ = ["search_plot"]
@@ -30,8 +30,6 @@ def _coordinate(search: Search, k: int, value: Any) -> float:
 
 def search_plot(search: Search, data: Mapping[str, Any], fmt: str) -> bytes:
     """The figure as ``svg`` or ``png`` bytes (``html``: the svg in a page)."""
-    import html
-
     import matplotlib
     from matplotlib.colors import TwoSlopeNorm
     from matplotlib.figure import Figure
@@ -101,16 +99,4 @@ def search_plot(search: Search, data: Mapping[str, Any], fmt: str) -> bytes:
         figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), ax=right, label="objective")
         figure.suptitle(f"{data['test']}: {data['verdict']} - {data['runs_done']} runs, {data['failures']} failing")
         figure.tight_layout()
-    buffer = io.BytesIO()
-    with matplotlib.rc_context({"svg.hashsalt": "btgen_pytrees", "svg.fonttype": "none"}):
-        if fmt == "png":
-            figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
-        else:
-            figure.savefig(buffer, format="svg", metadata={"Date": None})
-    out = buffer.getvalue()
-    if fmt != "html":
-        return out
-    svg = out.decode("utf-8")
-    title = html.escape(f"{data['test']}: {data['verdict']}")
-    return (f"<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{title}</title>\n</head>\n"
-            f"<body>\n{svg[svg.index('<svg'):]}\n</body>\n</html>\n").encode("utf-8")  # fmt: skip
+    return figure_bytes(figure, fmt, f"{data['test']}: {data['verdict']}")

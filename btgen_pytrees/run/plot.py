@@ -49,7 +49,7 @@ if TYPE_CHECKING:  # pragma: no cover - types only
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["Row", "timeline_rows", "signal_panels", "plot_figure", "plot_run", "plot_bytes", "plot_format", "require_matplotlib",
+__all__ = ["Row", "timeline_rows", "signal_panels", "plot_figure", "plot_run", "plot_bytes", "figure_bytes", "plot_format", "require_matplotlib",
            "PlotUnavailable", "SUFFIXES", "COLOURS"]  # fmt: skip
 
 SUFFIXES = {".svg": "svg", ".png": "png", ".html": "html", ".htm": "html"}
@@ -496,13 +496,21 @@ def plot_bytes(report: Report, case: TestCase, fmt: str, signals: Sequence[str] 
     *signals*: shell globs choosing the signals drawn (default: all, in telling order).
     """
     require_matplotlib()
-    import matplotlib
-
     if fmt not in ("svg", "png", "html"):
         raise ValueError(f"fmt must be svg, png or html, not {fmt!r}")
-    figure = plot_figure(report, case, signals)
+    return figure_bytes(plot_figure(report, case, signals), fmt, f"{report.test}: {report.verdict}", report.table())
+
+
+def figure_bytes(figure: Figure, fmt: str, title: str, text: str = "") -> bytes:
+    """*figure* as ``svg``, ``png`` or ``html`` bytes (a page titled *title*: *text* above the SVG).
+
+    The one way every picture of the package is written: a fixed hash salt and no date make the
+    same figure the same bytes on every run; SVG text stays text; no mathtext, so a ``$`` in a name
+    is a dollar sign; the SVG is well-formed whatever a name held.
+    """
+    import matplotlib
+
     buffer = io.BytesIO()
-    # a fixed hash salt and no date make the SVG the same bytes on every run; text stays text
     with matplotlib.rc_context({"svg.hashsalt": "btgen_pytrees", "svg.fonttype": "none", "text.parse_math": False}):
         if fmt == "png":
             figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
@@ -511,16 +519,14 @@ def plot_bytes(report: Report, case: TestCase, fmt: str, signals: Sequence[str] 
     data = buffer.getvalue()
     if fmt == "png":
         return data
-    svg = xml_safe(data.decode("utf-8"))  # well-formed whatever a name held
-    return _html_page(report, svg) if fmt == "html" else svg.encode("utf-8")
-
-
-def _html_page(report: Report, svg: str) -> bytes:
-    body = svg[svg.index("<svg"):]
+    svg = xml_safe(data.decode("utf-8"))
+    if fmt != "html":
+        return svg.encode("utf-8")
+    pre = f"<pre>{html.escape(printable(text, keep_newlines=True))}</pre>\n" if text else ""
     page = (
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-        f"<title>{html.escape(printable(report.test))}: {report.verdict}</title>\n</head>\n<body>\n"
-        f"<pre>{html.escape(printable(report.table(), keep_newlines=True))}</pre>\n{body}\n</body>\n</html>\n"
+        f"<title>{html.escape(printable(title))}</title>\n</head>\n<body>\n"
+        f"{pre}{svg[svg.index('<svg'):]}\n</body>\n</html>\n"
     )
     return page.encode("utf-8")
 

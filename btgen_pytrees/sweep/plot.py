@@ -21,12 +21,11 @@ is deterministic (same report, same SVG bytes).
 
 from __future__ import annotations
 
-import io
 import math
 from typing import TYPE_CHECKING, Any, Sequence
 
 from ..output import write_file
-from ..run.plot import plot_format
+from ..run.plot import figure_bytes, plot_format
 from .report import VERDICTS, SweepReport
 from .variations import format_value
 
@@ -203,27 +202,7 @@ def map_figure(report: SweepReport) -> "Figure":
 
 def map_bytes(report: SweepReport, fmt: str) -> bytes:
     """The map as ``svg``, ``png`` or ``html`` bytes (same report, same bytes)."""
-    import html
-
-    import matplotlib
-
-    figure = map_figure(report)
-    buffer = io.BytesIO()
-    with matplotlib.rc_context({"svg.hashsalt": "btgen_pytrees", "svg.fonttype": "none"}):
-        if fmt == "png":
-            figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
-        else:
-            figure.savefig(buffer, format="svg", metadata={"Date": None})
-    data = buffer.getvalue()
-    if fmt != "html":
-        return data
-    svg = data.decode("utf-8")
-    page = (
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-        f"<title>{html.escape(report.test)}: {report.verdict}</title>\n</head>\n<body>\n"
-        f"<pre>{html.escape(report.summary())}</pre>\n{svg[svg.index('<svg'):]}\n</body>\n</html>\n"
-    )
-    return page.encode("utf-8")
+    return figure_bytes(map_figure(report), fmt, f"{report.test}: {report.verdict}", report.summary())
 
 
 def plot_sweep(report: SweepReport, path: str) -> None:

@@ -48,7 +48,7 @@ from ..leaves.wiring import Trigger
 from .info import annotation, depth_for, is_selected, role, type_name, walk
 
 __all__ = [
-    "dot_graph", "dot_source", "png_depth", "PNG_MAX_NODES", "graphviz_render", "GraphvizMissing", "GraphvizTimeout", "GRAPHVIZ_TIMEOUT", "IMAGE_FORMATS", "STYLES",
+    "dot_graph", "dot_source", "png_depth", "PNG_MAX_NODES", "graphviz_render", "GraphvizMissing", "GraphvizTimeout", "GRAPHVIZ_TIMEOUT", "IMAGE_FORMATS", "STYLES", "style_key",
     "format_dot", "format_svg", "format_png",
 ]  # fmt: skip
 
@@ -117,7 +117,8 @@ def _quoted(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
 
-def _style_key(node: py_trees.behaviour.Behaviour) -> str:
+def style_key(node: py_trees.behaviour.Behaviour) -> str:
+    """The node's key in :data:`STYLES` (its colour in the tree picture and on the replay page)."""
     kind = role(node)
     if kind != "composite":
         return kind
@@ -148,7 +149,7 @@ def _element_id(node: py_trees.behaviour.Behaviour) -> str | None:
 
 
 def _node(name: str, node: py_trees.behaviour.Behaviour) -> pydot.Node:
-    attrs: dict[str, Any] = dict(STYLES[_style_key(node)])
+    attrs: dict[str, Any] = dict(STYLES[style_key(node)])
     attrs["label"] = _quoted(_label(node))
     attrs["tooltip"] = _quoted(annotation(node) or node.name)
     element_id = _element_id(node)

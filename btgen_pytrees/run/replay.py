@@ -40,11 +40,10 @@ from typing import Any, Sequence
 import py_trees
 from py_trees.composites import Parallel, Selector
 from py_trees.composites import Sequence as PySequence
-from py_trees.decorators import Decorator
 
 from ..errors import plural
 from ..model import TestCase
-from ..render.dot import STYLES
+from ..render.dot import STYLES, style_key
 from ..render.info import annotation, depth_for, role, type_name, walk
 from .export import select
 from .report import Report
@@ -83,17 +82,6 @@ def _value(value: Any) -> Any:
         return str(value)
 
 
-def _style(node: py_trees.behaviour.Behaviour) -> str:
-    """The node's key in :data:`~btgen_pytrees.render.dot.STYLES` (its colour in the tree picture)."""
-    kind = role(node)
-    if kind != "composite":
-        return kind
-    for cls in (Parallel, PySequence, Selector, Decorator):
-        if isinstance(node, cls):
-            return cls.__name__
-    return "leaf"
-
-
 def _tree_data(root: py_trees.behaviour.Behaviour) -> list[list[Any]]:
     """Every node in pre-order: ``[name, style, note, parent, id]``."""
     rows: list[list[Any]] = []
@@ -104,7 +92,7 @@ def _tree_data(root: py_trees.behaviour.Behaviour) -> list[list[Any]]:
         if role(node) == "composite" and isinstance(node, (Parallel, PySequence, Selector)):
             note = f"{type_name(node)}: {note}" if note else type_name(node)
         item = getattr(node, "btgen_entry", None) or getattr(node, "btgen_criterion", None)
-        rows.append([node.name, _style(node), note[:80] + ("…" if len(note) > 80 else ""),
+        rows.append([node.name, style_key(node), note[:80] + ("…" if len(note) > 80 else ""),
                      stack[-1] if stack else -1, item.id if item is not None else ""])  # fmt: skip
         stack.append(len(rows) - 1)
     return rows

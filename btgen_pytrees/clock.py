@@ -1,7 +1,7 @@
 """Clocks that leaves read time from.
 
 A generated tree never sleeps and never calls :func:`time.time` directly: every
-leaf asks the :class:`~btgen_pytrees.leaves.environment.Environment` for the
+leaf asks the :class:`~btgen_pytrees.contracts.environment.Environment` for the
 time, and the environment asks its clock - once per tick, when the tree's root
 begins the tick, so every node of a tick sees one time. Two clocks cover the
 two ways a tree is ticked:

@@ -43,12 +43,12 @@ import networkx as nx
 from .errors import InvalidTestCase, PathPart, Problem, by_place
 from .expressions import RESERVED, Expression, ExpressionError, parse
 from .leaves import Registry, default_registry
-from .leaves.registry import LeafType
+from .contracts.registry import LeafType
 from .overlap import overlapping_writes
 from .validation import SchemaValidator
 from .model import DEFAULT_JOIN, DEFAULT_TICK, DEFAULT_TIMEOUT, EMPTY, Criterion, Entry, TestCase
 from .order import is_acyclic
-from .systems.base import SystemInfo, SystemSpec
+from .contracts.system import SystemInfo, SystemSpec
 from .text import MAX_MESSAGE, did_you_mean, shorten
 
 __all__ = ["load", "load_json", "validate", "schema", "schema_for", "schema_text", "MAX_FILE_BYTES", "MAX_TICKS", "MAX_MAGNITUDE", "MIN_TICK", "MAX_WORK",

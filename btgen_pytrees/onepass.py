@@ -54,7 +54,7 @@ from functools import lru_cache
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
 from .leaves import Registry
-from .leaves.registry import LeafType
+from .contracts.registry import LeafType
 from .loader import (
     SURROGATE,
     Checker,
@@ -69,7 +69,7 @@ from .loader import (
 )
 from .model import DEFAULT_JOIN, EMPTY, Criterion, Entry, TestCase
 from .order import is_acyclic
-from .systems.base import SystemSpec
+from .contracts.system import SystemSpec
 from .systems.simulated import SIMULATED
 from .validation import SchemaValidator
 

@@ -39,9 +39,7 @@ LAYERS: dict[str, int] = {
     "btgen_pytrees.model": 0,
     # L1: contracts and algorithms that know no leaf, system or view
     "btgen_pytrees.timeline": 1,
-    "btgen_pytrees.leaves.registry": 1,
-    "btgen_pytrees.leaves.environment": 1,
-    "btgen_pytrees.systems.base": 1,
+    "btgen_pytrees.contracts": 1,
     # L2: built-in behaviours; L3: systems under test
     "btgen_pytrees.leaves": 2,
     "btgen_pytrees.systems": 3,
@@ -220,17 +218,8 @@ KNOWN_CYCLES: set[frozenset[str]] = {
     frozenset({
         'btgen_pytrees.leaves',
         'btgen_pytrees.leaves.builtin',
-        'btgen_pytrees.leaves.environment',
-        'btgen_pytrees.leaves.oracles',
-        'btgen_pytrees.leaves.plugins',
-        'btgen_pytrees.leaves.registry',
-        'btgen_pytrees.leaves.simulated',
-        'btgen_pytrees.systems',
-        'btgen_pytrees.systems.base',
-        'btgen_pytrees.systems.simulated',
         'btgen_pytrees.systems.sumo',
         'btgen_pytrees.systems.sumo.actions',
-        'btgen_pytrees.systems.sumo.system',
     }),
     frozenset({
         'btgen_pytrees.loader',
@@ -262,13 +251,10 @@ KNOWN_UPWARD: set[tuple[str, str]] = {
     ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems'),
     ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems.simulated'),
     ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems.sumo'),
-    ('btgen_pytrees.leaves.environment', 'btgen_pytrees.systems'),
-    ('btgen_pytrees.leaves.registry', 'btgen_pytrees.systems'),
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep'),
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep.case'),
     ('btgen_pytrees.sweep.command', 'btgen_pytrees.batch'),
     ('btgen_pytrees.sweep.jobs', 'btgen_pytrees.batch'),
-    ('btgen_pytrees.systems.base', 'btgen_pytrees.leaves'),
 }
 
 

@@ -15,7 +15,7 @@ from helpers import case, crit, entry, run_case
 
 import btgen_pytrees
 from btgen_pytrees.errors import MAX_LINE
-from btgen_pytrees.leaves.environment import Environment
+from btgen_pytrees.contracts.environment import Environment
 from btgen_pytrees.leaves.oracles import MAX_SAMPLES
 from btgen_pytrees.loader import MAX_SUGGESTIONS, MAX_WORK, work
 

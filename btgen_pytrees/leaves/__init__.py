@@ -1,22 +1,24 @@
 """Leaves: the behaviours at the tips of a generated tree.
 
-* :mod:`.registry` - which behaviour stands for which action or criterion type
 * :mod:`.builtin` - the built-in simulated leaves, registered like any plugin
 * :mod:`.plugins` - user leaves from entry points and ``--plugin`` modules
 * :mod:`.simulated`, :mod:`.oracles` - the built-in implementations
 * :mod:`.wiring` - triggers and completion marks the generator adds
-* :mod:`.environment` - blackboard namespace and clock shared by one tree
+
+The contracts they implement - the :class:`Registry` (which behaviour stands for which
+action or criterion type), the :class:`Environment` (blackboard namespace and clock
+shared by one tree) - live in :mod:`btgen_pytrees.contracts` and are re-exported here.
 """
 
 from __future__ import annotations
 
 from typing import Iterable
 
+from ..contracts.environment import Environment, unique_namespace
+from ..contracts.registry import Factory, FactoryError, LeafType, Registry
 from . import plugins as _plugins
 from .builtin import register_builtins
-from .environment import Environment, unique_namespace
 from .plugins import PluginError, loads_user_code
-from .registry import Factory, FactoryError, LeafType, Registry
 
 __all__ = [
     "Environment", "Factory", "FactoryError", "LeafType", "PluginError", "Registry",

@@ -10,7 +10,7 @@ from typing import Any
 
 from ..systems.simulated import SIMULATED
 from . import oracles, simulated
-from .registry import Registry
+from ..contracts.registry import Registry
 
 __all__ = ["register_builtins", "PARAMS"]
 

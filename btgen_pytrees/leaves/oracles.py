@@ -34,7 +34,7 @@ from py_trees.common import Status
 
 from ..expressions import ExpressionError, conjunction, format_number, why_false
 from ..model import Criterion
-from .environment import Environment
+from ..contracts.environment import Environment
 from .simulated import reached
 
 __all__ = ["Outcome", "Oracle", "Record", "Period", "Final"]

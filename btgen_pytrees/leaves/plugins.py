@@ -1,7 +1,7 @@
 """Finding user leaves: installed entry points and ``--plugin`` modules.
 
 A plugin is any callable ``register(registry)`` that adds leaf types to the
-:class:`~btgen_pytrees.leaves.registry.Registry` it is given. It reaches the
+:class:`~btgen_pytrees.contracts.registry.Registry` it is given. It reaches the
 generator in one of three ways:
 
 * from Python: call it yourself, or ``registry.register(...)`` directly;
@@ -33,7 +33,7 @@ from types import ModuleType
 from typing import Callable, Iterable, Iterator
 
 from ..errors import is_interrupt
-from .registry import Registry
+from ..contracts.registry import Registry
 
 __all__ = ["ENTRY_POINT_GROUP", "PluginError", "installed_plugins", "load_module_plugin", "loads_user_code"]
 

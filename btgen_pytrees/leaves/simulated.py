@@ -1,7 +1,7 @@
 """Built-in simulated behaviours and constraints.
 
 They act on signals stored on the blackboard (see
-:mod:`~btgen_pytrees.leaves.environment`) and measure time with the
+:mod:`~btgen_pytrees.contracts.environment`) and measure time with the
 environment's clock, so the same leaves run on the simulator's virtual clock and
 in a host application on wall-clock time.
 
@@ -19,7 +19,7 @@ from py_trees.common import Status
 
 from ..expressions import ExpressionError
 from ..model import Entry
-from .environment import Environment
+from ..contracts.environment import Environment
 
 __all__ = ["SimulatedLeaf", "Set", "Ramp", "Hold", "Wait", "Until", "reached"]
 

@@ -29,7 +29,7 @@ import py_trees
 from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
-from .environment import Environment
+from ..contracts.environment import Environment
 
 __all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
 

@@ -34,7 +34,7 @@ from py_trees.common import Status
 
 from ..leaves.oracles import Outcome, Record
 from ..leaves.wiring import RunStart
-from ..systems.base import SystemFailure
+from ..contracts.system import SystemFailure
 from .explain import explain, status_tree
 from .index import TreeIndex
 from .report import EntryResult, OracleResult, Report

@@ -45,7 +45,7 @@ from ..construct import generate
 from ..errors import is_interrupt
 from ..leaves import Registry, default_registry
 from ..model import TestCase
-from ..systems.base import System, SystemFailure
+from ..contracts.system import System, SystemFailure
 from .collector import Collector, Trace
 from .report import Report
 from .scene import Scene

@@ -24,7 +24,7 @@ from ..leaves.plugins import is_path
 from ..errors import ExitCode, InvalidTestCase, Problem, plural
 from ..loader import MAX_FILE_BYTES, load_json, parse_json, system_spec
 from ..output import OutputError, check_target, commit, emit, on_stdout
-from ..systems.base import SystemSpec
+from ..contracts.system import SystemSpec
 from .case import MAX_VARIATIONS, Sweep, Variation, has_variations, load_sweep
 from .executors import DaskExecutor, DaskUnavailable, check_address, scheduler_address
 from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk, job_run_shipped

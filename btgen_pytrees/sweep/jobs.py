@@ -25,7 +25,7 @@ from ..errors import ExitCode, InvalidTestCase
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
 from ..loader import MAX_WORK, check_work, parse_json, validate
-from ..systems.base import SystemSpec
+from ..contracts.system import SystemSpec
 from .shipping import local
 
 __all__ = ["VariationOutcome", "ChunkOutcome", "RunOptions", "job_variation", "job_chunk", "chunk_size",

@@ -1,8 +1,9 @@
-"""Systems under test: the interface (:mod:`.base`) and its implementations.
+"""Systems under test: the interface's names (re-exported) and its implementations.
 
-See :mod:`btgen_pytrees.systems.base` for the life cycle a run drives a system through.
+The interface is :mod:`btgen_pytrees.contracts.system` (the life cycle a run drives a
+system through); :mod:`.simulated` and :mod:`.sumo` implement it.
 """
 
-from .base import System, SystemFailure, SystemInfo, SystemSpec, SystemType
+from ..contracts.system import System, SystemFailure, SystemInfo, SystemSpec, SystemType
 
 __all__ = ["System", "SystemFailure", "SystemInfo", "SystemSpec", "SystemType"]

@@ -22,10 +22,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, Mapping
 
 from ..errors import Problem
-from .base import SystemInfo, SystemSpec
+from ..contracts.system import SystemInfo, SystemSpec
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..leaves.environment import Environment
+    from ..contracts.environment import Environment
     from ..model import TestCase
 
 __all__ = ["SimulatedSystem", "SimulatedType", "SIMULATED"]

@@ -21,13 +21,13 @@ from ...errors import Problem
 from ...expressions import RESERVED
 from ...model import DEFAULT_TICK
 from ...text import did_you_mean
-from ..base import SystemFailure, SystemInfo, SystemSpec
+from ...contracts.system import SystemFailure, SystemInfo, SystemSpec
 from . import actions
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
 from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, tick_problem
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ...leaves.registry import Registry
+    from ...contracts.registry import Registry
     from ...model import TestCase
 
 __all__ = ["SumoType", "SUMO", "SumoSystem", "register", "signal_vehicles"]

@@ -35,7 +35,7 @@ fails ("signal 'ego.gap' has no value") instead of passing on a stale number.
 
 Values are read with libsumo subscriptions (one call per step for all vehicles)
 and written straight into the tree's blackboard namespace (``<ns>/signals/``,
-see :mod:`btgen_pytrees.leaves.environment`).
+see :mod:`btgen_pytrees.contracts.environment`).
 """
 
 from __future__ import annotations
@@ -51,11 +51,11 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
 from py_trees.blackboard import Blackboard
 
-from ..base import SystemFailure
+from ...contracts.system import SystemFailure
 from .scenario import Scenario
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ...leaves.environment import Environment
+    from ...contracts.environment import Environment
 
 __all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT", "tick_problem",
            "LOOKAHEAD"]

@@ -1,7 +1,7 @@
 """The system under test: what a generated tree drives and judges.
 
 A :class:`System` is the other side of a run. The tree's leaves act on it (its
-actions are leaf factories in the :class:`~btgen_pytrees.leaves.Registry`,
+actions are leaf factories in the :class:`~btgen_pytrees.contracts.registry.Registry`,
 named ``<system>.<action>``, e.g. ``sumo.speed``), and the oracles judge the
 signals it publishes. One run drives one system instance through this life
 cycle, and the runner (or a host application) guarantees the order::
@@ -16,15 +16,15 @@ cycle, and the runner (or a host application) guarantees the order::
                                                   # a leaf that raised, Ctrl-C
 
 *The system's time is the run's clock*: :meth:`System.now` is what leaves and
-oracles read (through the tree's :class:`~btgen_pytrees.leaves.Environment`),
+oracles read (through the tree's :class:`~btgen_pytrees.contracts.environment.Environment`),
 so a simulator that steps faster than real time makes the whole test faster
 than real time, and a run is as reproducible as the system is.
 
 Signals a system *owns* are read-only for the test: the loader rejects a
 built-in ``set``/``ramp`` on them, and the case's initial ``signals`` never
 overwrite them. The built-in simulated signals are the first implementation
-(:mod:`.simulated`): it owns no signals, and its clock is the virtual clock
-that moves by ``tick`` per tree tick.
+(:mod:`btgen_pytrees.systems.simulated`): it owns no signals, and its clock is
+the virtual clock that moves by ``tick`` per tree tick.
 
 A back end is added like a leaf plugin: ``registry.register_system(SystemType)``
 in a ``register(registry)`` function reached through the ``btgen_pytrees.leaves``
@@ -37,10 +37,10 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Collection, Mapping, Protocol, runtime_checkable
 
 from ..model import SystemSpec  # case data, defined with the case (re-exported here and in systems)
+from .environment import Environment
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..errors import Problem
-    from ..leaves.environment import Environment
     from ..model import TestCase
 
 __all__ = ["System", "SystemType", "SystemSpec", "SystemInfo", "SystemFailure"]

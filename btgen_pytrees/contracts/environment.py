@@ -61,16 +61,13 @@ subtree declares its read of ``execute_done``.)
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
 import py_trees
 from py_trees.blackboard import Blackboard, Client, KeyMetaData
 from py_trees.common import Access
 
 from ..clock import Clock, WallClock
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..systems.base import System
 
 __all__ = ["Environment", "unique_namespace"]
 
@@ -112,10 +109,13 @@ class Environment:
     leaves reach the running :class:`~btgen_pytrees.systems.System` as
     :attr:`system` (set by the runner for a run, or by a host that drives a
     system itself; ``None`` otherwise), at tick time, not when they are built.
+    It is typed loosely (``Any``): the system's interface,
+    :mod:`btgen_pytrees.contracts.system`, builds on this module, not the
+    other way round, and a system's own leaves know the type they act on.
     """
 
     def __init__(self, namespace: str, clock: Clock | None = None, signals: Mapping[str, Any] | None = None,
-                 system: "System | None" = None):  # fmt: skip
+                 system: Any = None):  # fmt: skip
         ns = "/" + namespace.strip("/")
         self.namespace = ns
         self.clock: Clock = clock if clock is not None else WallClock()

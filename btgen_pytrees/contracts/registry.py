@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Callable, Mapping, Union
+from typing import Any, Callable, Mapping, Union
 
 import py_trees
 
@@ -28,9 +28,7 @@ from ..errors import is_interrupt
 from ..model import Criterion, Entry
 from ..validation import SchemaValidator, shared_validator
 from .environment import Environment
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..systems.base import SystemType
+from .system import SystemType
 
 __all__ = ["Factory", "FactoryError", "LeafError", "LeafType", "Registry", "KINDS"]
 
@@ -103,7 +101,7 @@ class Registry:
     """A mutable mapping of ``(kind, action)`` to :class:`LeafType`, and of names to system types."""
 
     def __init__(self, types: Mapping[tuple[str, str | None], LeafType] | None = None,
-                 systems: Mapping[str, "SystemType"] | None = None):  # fmt: skip
+                 systems: Mapping[str, SystemType] | None = None):  # fmt: skip
         self._types: dict[tuple[str, str | None], LeafType] = dict(types or {})
         self._systems: dict[str, SystemType] = dict(systems or {})
         self._classes: dict[type, bool] = {}  # leaf classes seen by build(): Behaviours, and whether defined in this package
@@ -180,7 +178,7 @@ class Registry:
         return Registry(self._types, self._systems)
 
     # -- systems under test ----------------------------------------------------
-    def register_system(self, system_type: "SystemType", *, replace: bool = False) -> "SystemType":
+    def register_system(self, system_type: SystemType, *, replace: bool = False) -> SystemType:
         """Make *system_type* available to cases as ``"system": {"type": system_type.name}``."""
         name = getattr(system_type, "name", None)
         if not isinstance(name, str) or not name.isidentifier():
@@ -190,7 +188,7 @@ class Registry:
         self._systems[name] = system_type
         return system_type
 
-    def system(self, name: str) -> "SystemType | None":
+    def system(self, name: str) -> SystemType | None:
         """The system type registered as *name*, or ``None``."""
         return self._systems.get(name)
 

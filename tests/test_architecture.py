@@ -40,9 +40,9 @@ LAYERS: dict[str, int] = {
     # L1: contracts and algorithms that know no leaf, system or view
     "btgen_pytrees.timeline": 1,
     "btgen_pytrees.contracts": 1,
-    # L2: built-in behaviours; L3: systems under test
-    "btgen_pytrees.leaves": 2,
-    "btgen_pytrees.systems": 3,
+    # L2: systems under test; L3: built-in behaviours (the SUMO actions among them) and their registration
+    "btgen_pytrees.systems": 2,
+    "btgen_pytrees.leaves": 3,
     # L4: what a case is made into
     "btgen_pytrees.overlap": 4,
     "btgen_pytrees.loader": 4,
@@ -216,12 +216,6 @@ def upward(package: pathlib.Path = PACKAGE) -> set[tuple[str, str]]:
 # What still breaks the rule, exactly (see the module docstring). Filled from the code; shrink it.
 KNOWN_CYCLES: set[frozenset[str]] = {
     frozenset({
-        'btgen_pytrees.leaves',
-        'btgen_pytrees.leaves.builtin',
-        'btgen_pytrees.systems.sumo',
-        'btgen_pytrees.systems.sumo.actions',
-    }),
-    frozenset({
         'btgen_pytrees.loader',
         'btgen_pytrees.onepass',
         'btgen_pytrees.sweep',
@@ -237,7 +231,6 @@ KNOWN_FUNCTION_LEVEL: set[tuple[str, str]] = {
     ('btgen_pytrees.cli', 'btgen_pytrees.run.export'),
     ('btgen_pytrees.cli', 'btgen_pytrees.run.plot'),
     ('btgen_pytrees.cli', 'btgen_pytrees.run.replay'),
-    ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems.sumo'),
     ('btgen_pytrees.loader', 'btgen_pytrees.onepass'),
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep.case'),
     ('btgen_pytrees.sweep.case', 'btgen_pytrees.loader'),
@@ -248,9 +241,6 @@ KNOWN_FUNCTION_LEVEL: set[tuple[str, str]] = {
 }
 KNOWN_PRIVATE: set[tuple[str, str, str]] = set()
 KNOWN_UPWARD: set[tuple[str, str]] = {
-    ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems'),
-    ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems.simulated'),
-    ('btgen_pytrees.leaves.builtin', 'btgen_pytrees.systems.sumo'),
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep'),
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep.case'),
     ('btgen_pytrees.sweep.command', 'btgen_pytrees.batch'),

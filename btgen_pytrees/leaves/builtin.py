@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..systems.simulated import SIMULATED
-from . import oracles, simulated
 from ..contracts.registry import Registry
+from ..systems.simulated import SIMULATED
+from . import oracles, simulated, sumo
 
 __all__ = ["register_builtins", "PARAMS"]
 
@@ -58,7 +58,5 @@ def register_builtins(registry: Registry) -> Registry:
     registry.register(None, oracles.Period, kind="period", params_schema=no_params, description="expect holds on every tick of a window")
     registry.register(None, oracles.Final, kind="final", params_schema=no_params, description="expect holds at one instant")
     registry.register_system(SIMULATED)
-    from ..systems import sumo  # the SUMO back end registers like a plugin; it imports libsumo only to run
-
-    sumo.register(registry)
+    sumo.register(registry)  # the SUMO back end registers like a plugin; it imports libsumo only to run
     return registry

@@ -32,9 +32,9 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
+from ..contracts.environment import Environment
 from ..expressions import ExpressionError, conjunction, format_number, why_false
 from ..model import Criterion
-from ..contracts.environment import Environment
 from .simulated import reached
 
 __all__ = ["Outcome", "Oracle", "Record", "Period", "Final"]

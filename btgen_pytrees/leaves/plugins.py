@@ -32,8 +32,8 @@ from importlib.metadata import EntryPoint, entry_points
 from types import ModuleType
 from typing import Callable, Iterable, Iterator
 
-from ..errors import is_interrupt
 from ..contracts.registry import Registry
+from ..errors import is_interrupt
 
 __all__ = ["ENTRY_POINT_GROUP", "PluginError", "installed_plugins", "load_module_plugin", "loads_user_code"]
 

@@ -2,12 +2,12 @@
 
 * :mod:`.scenario` - reads and checks the ``.sumocfg`` and its files at load time
 * :mod:`.system` - :class:`SumoSystem`, one libsumo simulation per run; the signals
-* :mod:`.actions` - the ``sumo.*`` action leaves
 
-:func:`register` adds the system type and its actions to a registry, like any
-plugin. Nothing here imports libsumo: only starting a SUMO run does, so cases
-without SUMO never need the ``sumo`` extra, and a SUMO run without it ends with a
-message saying how to install it. See docs/sumo.md.
+The ``sumo.*`` action leaves, and the ``register`` function that adds them and this
+system type to a registry, are :mod:`btgen_pytrees.leaves.sumo`: they act on the system,
+the system knows nothing of them. Nothing here imports libsumo: only starting a
+SUMO run does, so cases without SUMO never need the ``sumo`` extra, and a SUMO
+run without it ends with a message saying how to install it. See docs/sumo.md.
 """
 
 from __future__ import annotations
@@ -17,31 +17,20 @@ import os
 import re
 from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping
 
+from ...contracts.system import SystemFailure, SystemInfo, SystemSpec
 from ...errors import Problem
 from ...expressions import RESERVED
 from ...model import DEFAULT_TICK
 from ...text import did_you_mean
-from ...contracts.system import SystemFailure, SystemInfo, SystemSpec
-from . import actions
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
 from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, tick_problem
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ...contracts.registry import Registry
     from ...model import TestCase
 
-__all__ = ["SumoType", "SUMO", "SumoSystem", "register", "signal_vehicles"]
+__all__ = ["SumoType", "SUMO", "SumoSystem", "signal_vehicles"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*(?![\s\S])")
-_DESCRIPTIONS = {
-    "speed": "take over a vehicle's speed: ramp to 'to' over 'duration', then hold it ('safe': false disables SUMO's checks)",
-    "release": "give a vehicle back to SUMO's driver model",
-    "lane": "change lane; succeed once on 'lane', fail after 'timeout'",
-    "spawn": "insert a vehicle on a route; succeed once it is in the network",
-    "signal": "set a traffic light's state string",
-}
-_LEAVES = {"speed": actions.Speed, "release": actions.Release, "lane": actions.Lane, "spawn": actions.Spawn,
-           "signal": actions.Signal}  # fmt: skip
 
 
 def libsumo_installed() -> bool:
@@ -161,15 +150,6 @@ class SumoType:
 
 SUMO = SumoType()
 """The ``sumo`` system type, as registered."""
-
-
-def register(registry: "Registry") -> "Registry":
-    """Add the ``sumo`` system type and its ``sumo.*`` actions to *registry*."""
-    registry.register_system(SUMO)
-    for action, leaf in _LEAVES.items():
-        registry.register(f"sumo.{action}", leaf, kind="behavior", params_schema=actions.PARAMS[action],
-                          description=_DESCRIPTIONS[action])  # fmt: skip
-    return registry
 
 
 def config_path(case_source: str, config: str) -> str:

@@ -1,7 +1,11 @@
 """The SUMO action leaves: ``sumo.speed``, ``sumo.release``, ``sumo.lane``, ``sumo.spawn``, ``sumo.signal``.
 
+:func:`register` adds the ``sumo`` system type (:mod:`btgen_pytrees.systems.sumo`)
+and these leaves to a registry, like any plugin. They live with the leaves, above
+the system they act on: the system type knows nothing of them.
+
 Each is an ordinary py_trees behaviour built by the registry from an entry; it
-reaches the running :class:`~.system.SumoSystem` through its environment
+reaches the running :class:`~btgen_pytrees.systems.sumo.system.SumoSystem` through its environment
 (``env.system``) when it ticks. A command SUMO refuses, or a vehicle that is not
 in the network, makes the leaf fail with a message saying so (never an
 exception). Timing follows the built-in leaves (see
@@ -15,13 +19,17 @@ from typing import Any
 
 from py_trees.common import Status
 
-from ...leaves.simulated import SimulatedLeaf, reached
-from ...model import Entry
-from .system import CommandError, SumoSystem
+from ..contracts.registry import Registry
+from ..model import Entry
+from ..systems.sumo import SUMO
+from ..systems.sumo.system import CommandError, SumoSystem
+from .simulated import SimulatedLeaf, reached
 
-__all__ = ["SumoAction", "Speed", "Release", "Lane", "Spawn", "Signal", "PARAMS"]
+__all__ = ["SumoAction", "Speed", "Release", "Lane", "Spawn", "Signal", "PARAMS", "TIMEOUT", "register"]
 
 _SECONDS = {"type": "number", "minimum": 0, "description": "seconds, >= 0"}
+TIMEOUT = 10
+"""Seconds ``sumo.lane`` and ``sumo.spawn`` wait when their entry gives no ``timeout``."""
 _VEHICLE = {"type": "string", "minLength": 1, "maxLength": 200, "description": "a vehicle id"}
 
 
@@ -145,7 +153,7 @@ class Lane(SumoAction):
     def begin(self, system: SumoSystem) -> None:
         vid = self.params["vehicle"]
         if self.need(system, vid):
-            system.change_lane(vid, self.params["lane"], float(self.params.get("timeout", 10)), self.params.get("safe", True))
+            system.change_lane(vid, self.params["lane"], float(self.params.get("timeout", TIMEOUT)), self.params.get("safe", True))
 
     def step(self, system: SumoSystem) -> Status:
         vid, lane = self.params["vehicle"], self.params["lane"]
@@ -157,7 +165,7 @@ class Lane(SumoAction):
             system.change_lane(vid, lane, float(self.params.get("duration", 0)), self.params.get("safe", True))
             self.feedback_message = f"{vid} on lane {lane}"
             return Status.SUCCESS
-        timeout = float(self.params.get("timeout", 10))
+        timeout = float(self.params.get("timeout", TIMEOUT))
         if reached(self.elapsed(), timeout):
             self.feedback_message = f"{vid} still on lane {now_on}, not {lane}, after {timeout:g} s"
             return Status.FAILURE
@@ -182,7 +190,7 @@ class Spawn(SumoAction):
         if system.present(vid):
             self.feedback_message = f"{vid} in the network"
             return Status.SUCCESS
-        timeout = float(self.params.get("timeout", 10))
+        timeout = float(self.params.get("timeout", TIMEOUT))
         if reached(self.elapsed(), timeout):
             self.feedback_message = f"SUMO could not insert {vid!r} within {timeout:g} s (its place is blocked?)"
             return Status.FAILURE
@@ -200,3 +208,22 @@ class Signal(SumoAction):
     def begin(self, system: SumoSystem) -> None:
         system.set_signal(self.params["tls"], self.params["state"])
         self.feedback_message = f"{self.params['tls']} = {self.params['state']}"
+
+
+_DESCRIPTIONS = {
+    "speed": "take over a vehicle's speed: ramp to 'to' over 'duration', then hold it ('safe': false disables SUMO's checks)",
+    "release": "give a vehicle back to SUMO's driver model",
+    "lane": "change lane; succeed once on 'lane', fail after 'timeout'",
+    "spawn": "insert a vehicle on a route; succeed once it is in the network",
+    "signal": "set a traffic light's state string",
+}
+_LEAVES = {"speed": Speed, "release": Release, "lane": Lane, "spawn": Spawn, "signal": Signal}
+
+
+def register(registry: Registry) -> Registry:
+    """Add the ``sumo`` system type and its ``sumo.*`` actions to *registry*."""
+    registry.register_system(SUMO)
+    for action, leaf in _LEAVES.items():
+        registry.register(f"sumo.{action}", leaf, kind="behavior", params_schema=PARAMS[action],
+                          description=_DESCRIPTIONS[action])  # fmt: skip
+    return registry

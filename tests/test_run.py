@@ -223,6 +223,41 @@ def test_until_timeout_message_keeps_the_evaluation_error() -> None:
     assert report.execute[0].message == "false still false after 0.2 s"
 
 
+def test_a_leaf_s_timeout_is_written_once_in_simulated_leaf() -> None:
+    """``SimulatedLeaf.timed_out(default)``, what ``until``, ``sumo.lane`` and ``sumo.spawn`` give up by: the
+    ``timeout`` param (else *default*) on the first tick that many seconds after the leaf started (0.1 * 3
+    counting as 0.3), ``None`` before then and for a leaf without either."""
+    from btgen_pytrees.leaves import default_registry
+    from btgen_pytrees.leaves.simulated import SimulatedLeaf
+
+    seen: list[tuple[float, Any]] = []
+
+    class Stuck(SimulatedLeaf):
+        def update(self) -> py_trees.common.Status:
+            timeout = self.timed_out(self.params.get("default"))
+            seen.append((self.env.now(), timeout))
+            if timeout is None:
+                return py_trees.common.Status.RUNNING
+            self.feedback_message = f"gave up after {timeout} s"
+            return py_trees.common.Status.FAILURE
+
+    registry = default_registry()
+    registry.register("stuck", Stuck, params_schema={"type": "object", "properties": {
+        "timeout": {"type": "number"}, "default": {"type": "number"}}})  # fmt: skip
+
+    def stuck(**params: Any) -> Any:
+        seen.clear()
+        return run(btgen_pytrees.load(case(entry("S", action="stuck", **params), timeout=1), registry=registry), registry=registry)
+
+    report = stuck(default=0.3)
+    assert (report.execute[0].end, report.execute[0].message) == (0.3, "gave up after 0.3 s")
+    assert [t for _, t in seen] == [None, None, None, 0.3]
+    report = stuck(timeout=0.2, default=0.3)  # the param wins over the default
+    assert (report.execute[0].end, report.execute[0].message) == (0.2, "gave up after 0.2 s")
+    report = stuck()  # neither: never gives up, the run times out
+    assert report.verdict == "timeout" and {t for _, t in seen} == {None} and len(seen) == 11
+
+
 def test_a_leaf_that_raises_gives_verdict_error_not_a_traceback() -> None:
     from btgen_pytrees.leaves import default_registry
 

@@ -17,9 +17,9 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
+from ..contracts.environment import Environment
 from ..expressions import ExpressionError
 from ..model import Entry
-from ..contracts.environment import Environment
 
 __all__ = ["SimulatedLeaf", "Set", "Ramp", "Hold", "Wait", "Until", "reached"]
 
@@ -55,6 +55,14 @@ class SimulatedLeaf(py_trees.behaviour.Behaviour):
 
     def elapsed(self) -> float:
         return self.env.now() - self.started
+
+    def timed_out(self, default: float | None = None) -> float | None:
+        """The leaf's ``timeout`` param (*default* when it has none) once that many seconds have
+        passed since it started; ``None`` before then, and always for a leaf without a timeout."""
+        timeout = self.params.get("timeout", default)
+        if timeout is not None and reached(self.elapsed(), timeout):
+            return timeout
+        return None
 
 
 class Set(SimulatedLeaf):
@@ -138,8 +146,8 @@ class Until(SimulatedLeaf):
         if ok:
             self.feedback_message = f"{expect.source} held at {self.env.now():.6g} s"
             return Status.SUCCESS
-        timeout = self.params.get("timeout")
-        if timeout is not None and reached(self.elapsed(), timeout):
+        timeout = self.timed_out()
+        if timeout is not None:
             shown = ", ".join(f"{k}={v!r}" for k, v in sorted(values.items()))
             self.feedback_message = f"{expect.source} still false after {timeout} s" + (f" ({shown})" if shown else "") + why
             return Status.FAILURE

@@ -165,8 +165,8 @@ class Lane(SumoAction):
             system.change_lane(vid, lane, float(self.params.get("duration", 0)), self.params.get("safe", True))
             self.feedback_message = f"{vid} on lane {lane}"
             return Status.SUCCESS
-        timeout = float(self.params.get("timeout", TIMEOUT))
-        if reached(self.elapsed(), timeout):
+        timeout = self.timed_out(TIMEOUT)
+        if timeout is not None:
             self.feedback_message = f"{vid} still on lane {now_on}, not {lane}, after {timeout:g} s"
             return Status.FAILURE
         self.feedback_message = f"{vid} on lane {now_on} -> {lane}"
@@ -190,8 +190,8 @@ class Spawn(SumoAction):
         if system.present(vid):
             self.feedback_message = f"{vid} in the network"
             return Status.SUCCESS
-        timeout = float(self.params.get("timeout", TIMEOUT))
-        if reached(self.elapsed(), timeout):
+        timeout = self.timed_out(TIMEOUT)
+        if timeout is not None:
             self.feedback_message = f"SUMO could not insert {vid!r} within {timeout:g} s (its place is blocked?)"
             return Status.FAILURE
         self.feedback_message = f"waiting for {vid} to be inserted"

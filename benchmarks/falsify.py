@@ -26,8 +26,12 @@ the declared resolution (the built-in cases: from the ellipse's equation; SUMO:
 half the width of the pass/fail pair, an upper bound, since the boundary lies
 between a real passing and a real failing run).
 
-``--sumo-loop`` compares a SUMO run inside a search with the same run done by a
-bare libsumo loop (start, set speeds, step, change lane, read, close).
+``--sumo-loop`` compares a SUMO run inside a search (validate + run, exactly as the
+search's job does it) with the same setting run by a bare libsumo loop written by hand
+(:func:`bare_run`: start, set speeds, step, change lane, read the gap, close - the same
+SUMO steps, counted and printed), both measured in this process, interleaved run by
+run, medians over 20 settings x 5 rounds; also the bare loop reloading with
+``libsumo.load`` instead of start ... close, and where the search's run spends its time.
 """
 
 from __future__ import annotations
@@ -232,56 +236,126 @@ def search_case(name: str, method: str, seeds: int, budget: int) -> dict[str, An
 # -- a bare libsumo loop -----------------------------------------------------------------------------------
 
 
-def sumo_loop(points: int = 20) -> dict[str, Any]:
-    """cut_in_3d's run inside a search (validate + run, as the search's job) against the same scenario in a bare libsumo loop."""
+def _bare_arguments(config: str) -> list[str]:
+    """What the bare loop starts SUMO with: the case's own command line (see SumoSystem.arguments)."""
+    return ["sumo", "-c", config, "--step-length", "0.1", "--begin", "0", "--no-step-log", "true", "--no-warnings",
+            "true", "--duration-log.disable", "true", "--xml-validation", "never", "--xml-validation.net", "never",
+            "--xml-validation.routes", "never", "--seed", "1"]  # fmt: skip
+
+
+def bare_run(libsumo: Any, args: list[str], v: dict[str, Any], reload: bool = False) -> int:
+    """``cut_in_3d`` at the setting *v* written by hand against libsumo: the same steps and commands as the
+    case's run (set both speeds; when the gap is down to ``gap``, the cutter changes to lane 0 for 2 s
+    with lane-change mode 0; 8 s after it is there the run ends; it ends early on a collision or an
+    ``ego.gap`` below 0.5 m), reading only what it needs (two positions, the leader, collisions, the
+    cutter's lane). Returns SUMO's steps. *reload*: ``libsumo.load`` instead of ``start`` ... ``close``."""
+    if reload:
+        libsumo.load(args[1:])
+    else:
+        libsumo.start(args)
+    veh, sim = libsumo.vehicle, libsumo.simulation
+    libsumo.simulationStep()  # SUMO's step at 0, as SumoSystem.start
+    steps, cut, there = 1, None, None
+    for k in range(400):  # tick k (the case's timeout: 40 s)
+        leader = veh.getLeader("ego", 1000.0)
+        if sim.getCollidingVehiclesNumber() or (leader and leader[0] and leader[1] + 2.5 < 0.5):
+            break
+        if k == 0:
+            veh.setSpeed("cutter", v["cutter_speed"])
+            veh.setSpeed("ego", v["ego_speed"])
+        if cut is None and veh.getPosition("cutter")[0] - 5 - veh.getPosition("ego")[0] <= v["gap"]:
+            veh.setLaneChangeMode("cutter", 0)
+            veh.changeLane("cutter", 0, 1.9)
+            cut = k
+        elif cut is not None and there is None and veh.getLaneIndex("cutter") == 0:
+            there = k
+        if there is not None and k - there >= 80:
+            break
+        libsumo.simulationStep()
+        steps += 1
+    if not reload:
+        libsumo.close()
+    return steps
+
+
+def _breakdown(sweep: Any, v: dict[str, Any]) -> dict[str, float]:
+    """One run of the search's job taken apart (s): validation, system and tree, SUMO's start/close and
+    steps, the adapter, and the rest of the run (the tree's ticks, the collector)."""
+    from btgen_pytrees.construct import generate
+    from btgen_pytrees.run import create_system, run_tree
+
+    registry = default_registry()
+    t0 = time.perf_counter()
+    case = validate(sweep.document({**sweep.defaults, **v}), sweep.source, registry)
+    t1 = time.perf_counter()
+    system = create_system(case, registry)
+    system.timer = time.perf_counter  # type: ignore[attr-defined]
+    root = generate(case, registry=registry, clock=system)
+    t2 = time.perf_counter()
+    run_tree(root, case, system=system)
+    t3 = time.perf_counter()
+    root.btgen_env.release()
+    timing = system.timing  # type: ignore[attr-defined]
+    return {"validate": t1 - t0, "system and tree": t2 - t1, "SUMO start+close": timing["start"] + timing["close"],
+            "SUMO steps": timing["sumo"], "adapter": timing["adapter"],
+            "tree, collector": t3 - t2 - sum(timing.values())}  # fmt: skip
+
+
+def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
+    """cut_in_3d's run inside a search (validate + run, as the search's job does it) against the same
+    settings in a bare libsumo loop (:func:`bare_run`), interleaved run by run; medians per run."""
+    import random
+
     import libsumo
 
     sweep = _sweep("cut_in_3d")
     space = Space.of(sweep.variations)
-    import random
-
     rng = random.Random(1)
     values = [space.values([rng.random() for _ in space.dimensions]) for _ in range(points)]
-    config = str((case_path("cut_in_3d").parent / sweep.template["system"]["config"]).resolve())
-
-    def bare(v: dict[str, Any]) -> bool:
-        libsumo.start(["sumo", "-c", config, "--step-length", "0.1", "--begin", "0", "--no-step-log", "true",
-                       "--no-warnings", "true", "--duration-log.disable", "true", "--seed", "1",
-                       "--xml-validation", "never", "--xml-validation.net", "never", "--xml-validation.routes", "never"])  # fmt: skip
-        veh = libsumo.vehicle
-        libsumo.simulationStep()
-        veh.setSpeed("cutter", v["cutter_speed"])
-        veh.setSpeed("ego", v["ego_speed"])
-        ok, cut, after = True, False, 0
-        for _ in range(400):
-            libsumo.simulationStep()
-            ego, cutter = veh.getPosition("ego")[0], veh.getPosition("cutter")[0]
-            leader = veh.getLeader("ego", 1000.0)
-            if leader and leader[1] < 1.0 or libsumo.simulation.getCollidingVehiclesNumber():
-                ok = False
-                break
-            if not cut and cutter - 5 - ego <= v["gap"]:
-                veh.setLaneChangeMode("cutter", 0)
-                veh.changeLane("cutter", 0, 2.0)
-                cut = True
-            elif cut:
-                after += 1
-                if after >= 80:
-                    break
-        libsumo.close()
-        return ok
-
-    bare(values[0])  # warm-up (imports, caches)
-    t0 = time.perf_counter()
-    for v in values:
-        bare(v)
-    bare_s = (time.perf_counter() - t0) / points
+    args = _bare_arguments(str((case_path("cut_in_3d").parent / sweep.template["system"]["config"]).resolve()))
+    clock = time.perf_counter
+    bare_run(libsumo, args, values[0])  # warm-up (imports, caches)
     _row(sweep, values[0])
-    t0 = time.perf_counter()
+    times: dict[str, list[float]] = {"search": [], "bare": [], "bare_load": []}
+    steps = {"search": 0, "bare": 0}
+    for r in range(rounds):
+        for v in values:
+            t0 = clock()
+            n = bare_run(libsumo, args, v)
+            t1 = clock()
+            row = _row(sweep, v)
+            t2 = clock()
+            times["bare"].append(t1 - t0)
+            times["search"].append(t2 - t1)
+            if r == 0:
+                steps["bare"] += n
+                steps["search"] += row["ticks"]
+        libsumo.start(args)  # the bare loop once more, started once and reloaded per run
+        for v in values:
+            t0 = clock()
+            bare_run(libsumo, args, v, reload=True)
+            times["bare_load"].append(clock() - t0)
+        libsumo.close()
+    parts: dict[str, list[float]] = {}
     for v in values:
-        _row(sweep, v)
-    search_s = (time.perf_counter() - t0) / points
-    return {"points": points, "bare_ms": bare_s * 1000, "search_ms": search_s * 1000, "ratio": search_s / bare_s}
+        for k, s in _breakdown(sweep, v).items():
+            parts.setdefault(k, []).append(s)
+    ms = {k: 1000 * statistics.median(t) for k, t in times.items()}
+    return {"points": points, "runs": points * rounds, "search_ms": ms["search"], "bare_ms": ms["bare"],
+            "bare_load_ms": ms["bare_load"], "ratio": ms["search"] / ms["bare"], "steps": steps,
+            "breakdown_ms": {k: 1000 * statistics.median(t) for k, t in parts.items()}}  # fmt: skip
+
+
+def sumo_loop_text(loop: dict[str, Any]) -> str:
+    parts = ", ".join(f"{k} {v:.2f}" for k, v in loop["breakdown_ms"].items())
+    return (f"\nSUMO run inside a search (validate + run, as the search's job): {loop['search_ms']:.2f} ms; "
+            f"bare libsumo loop (start ... close): {loop['bare_ms']:.2f} ms; ratio {loop['ratio']:.2f}x "
+            f"(goal <= {GOALS['sumo_vs_bare']}x)\n"
+            f"medians of {loop['runs']} runs each ({loop['points']} settings x {loop['runs'] // loop['points']}, "
+            f"interleaved); SUMO steps over the {loop['points']} settings: search {loop['steps']['search']}, "
+            f"bare {loop['steps']['bare']}\n"
+            f"bare loop reloading with libsumo.load instead of start ... close: {loop['bare_load_ms']:.2f} ms\n"
+            f"the search's run, ms (medians): {parts}\n")  # fmt: skip
 
 
 # -- the report --------------------------------------------------------------------------------------------
@@ -332,8 +406,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     text = table(rows, truths, args.budget)
     loop = sumo_loop() if args.sumo_loop else None
     if loop:
-        text += (f"\nSUMO run inside a search: {loop['search_ms']:.1f} ms, bare libsumo loop: {loop['bare_ms']:.1f} ms "
-                 f"({loop['ratio']:.2f}x; goal <= {GOALS['sumo_vs_bare']}x)\n")  # fmt: skip
+        text += sumo_loop_text(loop)
     text += f"\n{platform.python_implementation()} {platform.python_version()}, {platform.machine()}; in-process runs, one after the other\n"
     sys.stdout.write(text)
     if args.json:

@@ -132,6 +132,39 @@ def test_a_symbolic_link_out_of_the_directory_is_a_problem(tmp_path: pathlib.Pat
     assert "leads outside the configuration's directory" in problem
 
 
+def test_a_scenario_is_read_once_per_content_and_again_whenever_a_file_changes(tmp_path: pathlib.Path) -> None:
+    """read_scenario keeps what it read (a search reads the same scenario for every run) and gives
+    it back only while every file has the same real path, size and content - not the same mtime."""
+    outside, tmp_path = tmp_path / "outside", tmp_path / "scenario"
+    outside.mkdir()
+    tmp_path.mkdir()
+    cfg = scenario_dir(tmp_path)
+    first = read_scenario(str(cfg))
+    assert first.problems == () and read_scenario(str(cfg)) is first
+    routes = tmp_path / "r.rou.xml"
+    stamp = routes.stat()
+    routes.write_text(ROUTES.replace('id="ego"', 'id="egg"'), encoding="utf-8")  # same size, same mtime
+    os.utime(routes, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
+    second = read_scenario(str(cfg))
+    assert second is not first and sorted(second.vehicles) == ["egg"]
+    assert read_scenario(str(cfg)) is second
+    (tmp_path / "more.rou.xml").write_text(ROUTES.replace('id="ego"', 'id="other"'), encoding="utf-8")
+    cfg.write_text(CONFIG.replace("r.rou.xml", "r.rou.xml more.rou.xml"), encoding="utf-8")
+    assert sorted(read_scenario(str(cfg)).vehicles) == ["egg", "other"]
+    (tmp_path / "more.rou.xml").write_text("<routes><vehicle id='x' route='nowhere' depart='0'/></routes>", encoding="utf-8")
+    (problem,) = read_scenario(str(cfg)).problems
+    assert "vehicle 'x' uses route 'nowhere', which no file declares" in problem
+    assert read_scenario(str(cfg)).problems == (problem,)  # a scenario with problems is read again every time
+    (outside / "road.net.xml").write_text(NET, encoding="utf-8")
+    (tmp_path / "more.rou.xml").unlink()
+    cfg.write_text(CONFIG, encoding="utf-8")
+    assert read_scenario(str(cfg)).vehicles == {"egg": "0"}
+    (tmp_path / "road.net.xml").unlink()
+    os.symlink(outside / "road.net.xml", tmp_path / "road.net.xml")  # the same bytes, now out of the directory
+    (problem,) = read_scenario(str(cfg)).problems
+    assert "leads outside the configuration's directory" in problem
+
+
 def test_a_missing_configuration_is_a_problem(tmp_path: pathlib.Path) -> None:
     (problem,) = read_scenario(str(tmp_path / "nope.sumocfg")).problems
     assert problem == "nope.sumocfg: cannot read: No such file or directory"
@@ -777,3 +810,4 @@ def test_a_vehicle_that_left_ends_its_signals_in_the_trace_when_libsumo_stops_li
     for attribute in motion:
         ticks, values = trace.signals[f"ego.{attribute}"]
         assert (ticks[-1], values[-1]) == (k, ENDED), attribute  # ended on that tick, not held on
+

@@ -18,6 +18,16 @@ problem, no DTDs, no entities, no external references):
   ``output``, ... attributes, ``<include>``) or equip a device that writes one
   (``<param key="device.*">``, ``has.*.device``).
 
+**Read once per content.** A search or sweep validates and runs the same
+scenario thousands of times in a process (and the SUMO system type reads it when
+it checks a case, when it makes the system, and when a cluster ships the files);
+:func:`read_scenario` therefore keeps the last :data:`CACHE_SIZE` scenarios read
+without problems, each with the real path, size and BLAKE2 digest of every file
+it parsed (the digest of the very bytes the parser saw), and returns a kept one
+only when every file still has that real path, size and content (and the
+limits below are the same) - an edited, replaced or re-linked file is read and
+checked again, exactly as the first time.
+
 The result is a :class:`Scenario`; problems are plain strings here and become
 :class:`~btgen_pytrees.errors.Problem` s with the case's JSON path in
 :mod:`.system_type`.
@@ -25,18 +35,21 @@ The result is a :class:`Scenario`; problems are plain strings here and become
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import re
 import stat
+import threading
 import xml.parsers.expat
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Callable, Iterator, Mapping
 
 from ...text import closest
 
 __all__ = ["Scenario", "ScenarioError", "read_scenario", "OPTIONS", "parse_options", "MAX_XML_BYTES",
-           "MAX_SCENARIO_BYTES", "MAX_XML_DEPTH"]  # fmt: skip
+           "MAX_SCENARIO_BYTES", "MAX_XML_DEPTH", "CACHE_SIZE"]  # fmt: skip
 
 MAX_XML_BYTES = 64 * 1024 * 1024
 """Largest configuration, network, route or additional file read (64 MiB)."""
@@ -200,8 +213,14 @@ def parse_options(options: tuple[str, ...] | list[str]) -> tuple[dict[str, str],
 # reading XML with line numbers
 
 
-def _elements(path: str, shown: str) -> Iterator[tuple[str, Mapping[str, str], int, int]]:
+_Seen = dict[str, tuple[str, int, bytes]]
+"""path -> (real path, size, BLAKE2 digest) of each file parsed to its end."""
+
+
+def _elements(path: str, shown: str, seen: _Seen | None = None) -> Iterator[tuple[str, Mapping[str, str], int, int]]:
     """Yield ``(tag, attributes, line, depth)`` of every element of the XML file *path* (root: depth 1).
+
+    *seen*: where to note the file's fingerprint (:func:`_fingerprint`) of the bytes parsed, once read to its end.
 
     Raises:
         ScenarioError: unreadable, too large, not well-formed, or it declares a DTD.
@@ -235,15 +254,21 @@ def _elements(path: str, shown: str) -> Iterator[tuple[str, Mapping[str, str], i
     parser.EndElementHandler = end
     parser.StartDoctypeDeclHandler = doctype
     parser.EntityDeclHandler = doctype
+    digest = hashlib.blake2b(digest_size=16)
+    size = 0
     try:
         with open(path, "rb") as fh:
             while True:
                 chunk = fh.read(1 << 20)
+                digest.update(chunk)
+                size += len(chunk)
                 parser.Parse(chunk, not chunk)
                 yield from found
                 found.clear()
                 if not chunk:
                     break
+        if seen is not None:
+            seen[path] = (os.path.realpath(path), size, digest.digest())
     except xml.parsers.expat.ExpatError as exc:
         raise ScenarioError(f"{shown}:{exc.lineno}: not well-formed XML: {xml.parsers.expat.ErrorString(exc.code)}") from None
     except OSError as exc:
@@ -265,13 +290,80 @@ def _inside(base: str, name: str, where: str) -> str:
     return full
 
 
+CACHE_SIZE = 8
+"""Scenarios :func:`read_scenario` keeps per process (the most recently used; each holds its network's shapes)."""
+_cache: "OrderedDict[str, tuple[tuple[int, ...], str, tuple[tuple[str, tuple[str, int, bytes]], ...], Scenario]]" = OrderedDict()
+"""config path -> (the limits it was checked against, real path of its directory, each file's fingerprint, the scenario)."""
+_cache_lock = threading.Lock()
+
+
+def _fingerprint(path: str) -> tuple[str, int, bytes] | None:
+    """``(real path, size, BLAKE2 digest)`` of the file at *path* now; ``None`` if it cannot be read."""
+    try:
+        real = os.path.realpath(path)
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            digest = hashlib.blake2b(digest_size=16)
+            read = 0
+            while True:
+                chunk = fh.read(1 << 20)
+                if not chunk:
+                    break
+                read += len(chunk)
+                digest.update(chunk)
+    except OSError:
+        return None
+    return (real, read, digest.digest()) if read == size else None
+
+
+def _unchanged(base: str, real_base: str, files: tuple[tuple[str, tuple[str, int, bytes]], ...]) -> bool:
+    """Whether the configuration's directory and every file a kept scenario parsed are as they were then."""
+    if os.path.realpath(base) != real_base:
+        return False
+    for path, (real, size, digest) in files:
+        try:
+            if os.stat(path).st_size != size:  # cheap first: a changed size needs no reading
+                return False
+        except OSError:
+            return False
+        if _fingerprint(path) != (real, size, digest):
+            return False
+    return True
+
+
 def read_scenario(config: str) -> Scenario:
-    """The :class:`Scenario` of the ``.sumocfg`` at *config*; problems are in :attr:`Scenario.problems`."""
+    """The :class:`Scenario` of the ``.sumocfg`` at *config*; problems are in :attr:`Scenario.problems`.
+
+    A scenario read before without problems whose files all still have the same real path, size
+    and content is returned as it was (see the module docstring); anything else is read again.
+    """
     config = os.path.abspath(config)
+    base = os.path.dirname(config)
+    limits = (MAX_XML_BYTES, MAX_SCENARIO_BYTES, MAX_XML_DEPTH, MAX_SHAPE_POINTS)
+    with _cache_lock:
+        kept = _cache.get(config)
+    if kept is not None and kept[0] == limits and _unchanged(base, kept[1], kept[2]):
+        with _cache_lock:
+            if config in _cache:
+                _cache.move_to_end(config)
+        return kept[3]
+    real_base = os.path.realpath(base)
+    seen: _Seen = {}
+    scenario = _read_scenario(config, seen)
+    if not scenario.problems and set(seen) >= set(scenario.files):
+        with _cache_lock:
+            _cache[config] = (limits, real_base, tuple((path, seen[path]) for path in scenario.files), scenario)
+            _cache.move_to_end(config)
+            while len(_cache) > CACHE_SIZE:
+                _cache.popitem(last=False)
+    return scenario
+
+
+def _read_scenario(config: str, seen: _Seen) -> Scenario:
     shown = os.path.basename(config)
     base = os.path.dirname(config)
     try:
-        options, inputs = _read_config(config, shown, base)
+        options, inputs = _read_config(config, shown, base, seen)
         net = inputs.get("net-file", [])
         if len(net) != 1:
             raise ScenarioError(f"{shown}: needs exactly one 'net-file' (found {len(net)})")
@@ -279,10 +371,10 @@ def read_scenario(config: str) -> Scenario:
         lanes: dict[str, int] = {}
         signals: dict[str, int] = {}
         shapes: list[tuple[str, float, tuple[float, ...]]] = []
-        _read_net(net[0], os.path.relpath(net[0], base), lanes, signals, shapes)
+        _read_net(net[0], os.path.relpath(net[0], base), lanes, signals, shapes, seen)
         demand = _Demand(lanes)
         for path in inputs.get("route-files", []) + inputs.get("additional-files", []):
-            demand.read(path, os.path.relpath(path, base))
+            demand.read(path, os.path.relpath(path, base), seen)
         demand.check()
     except ScenarioError as exc:
         return Scenario(config, problems=(str(exc),))
@@ -312,11 +404,11 @@ _SECTIONS = frozenset({
 })  # fmt: skip
 
 
-def _read_config(config: str, shown: str, base: str) -> tuple[dict[str, str], dict[str, list[str]]]:
+def _read_config(config: str, shown: str, base: str, seen: _Seen | None = None) -> tuple[dict[str, str], dict[str, list[str]]]:
     options: dict[str, str] = {}
     inputs: dict[str, list[str]] = {}
     empty = True
-    for tag, attributes, line, depth in _elements(config, shown):
+    for tag, attributes, line, depth in _elements(config, shown, seen):
         where = f"{shown}:{line}"
         empty = False
         if depth == 1:
@@ -367,12 +459,12 @@ def _points(text: str) -> tuple[float, ...]:
 
 
 def _read_net(path: str, shown: str, lanes: dict[str, int], signals: dict[str, int],
-              shapes: list[tuple[str, float, tuple[float, ...]]] | None = None) -> None:  # fmt: skip
+              shapes: list[tuple[str, float, tuple[float, ...]]] | None = None, seen: _Seen | None = None) -> None:  # fmt: skip
     edge: str | None = None
     logic = ""
     empty = True
     room = MAX_SHAPE_POINTS
-    for tag, attributes, line, depth in _elements(path, shown):
+    for tag, attributes, line, depth in _elements(path, shown, seen):
         where = f"{shown}:{line}"
         if depth == 1 and tag != "net":
             raise ScenarioError(f"{where}: not a SUMO network (root element <{tag}>)")
@@ -415,10 +507,10 @@ class _Demand:
         self.route_edges: dict[str, str] = {}
         self.uses: list[tuple[str, str, str, str]] = []  # (where, vehicle, "type"/"route", id)
 
-    def read(self, path: str, shown: str) -> None:
+    def read(self, path: str, shown: str, seen: _Seen | None = None) -> None:
         in_distribution = False
         empty = True
-        for tag, attributes, line, depth in _elements(path, shown):
+        for tag, attributes, line, depth in _elements(path, shown, seen):
             where = f"{shown}:{line}"
             if depth == 1:
                 if tag not in ("routes", "additional"):

@@ -292,7 +292,7 @@ def _breakdown(sweep: Any, v: dict[str, Any]) -> dict[str, float]:
     system.timer = time.perf_counter  # type: ignore[attr-defined]
     root = generate(case, registry=registry, clock=system)
     t2 = time.perf_counter()
-    run_tree(root, case, system=system)
+    run_tree(root, case, system=system, record=False)  # as the sweep's job
     t3 = time.perf_counter()
     root.btgen_env.release()
     timing = system.timing  # type: ignore[attr-defined]
@@ -313,28 +313,30 @@ def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
     rng = random.Random(1)
     values = [space.values([rng.random() for _ in space.dimensions]) for _ in range(points)]
     args = _bare_arguments(str((case_path("cut_in_3d").parent / sweep.template["system"]["config"]).resolve()))
-    clock = time.perf_counter
+    wall, cpu = time.perf_counter, time.process_time
     bare_run(libsumo, args, values[0])  # warm-up (imports, caches)
     _row(sweep, values[0])
-    times: dict[str, list[float]] = {"search": [], "bare": [], "bare_load": []}
+    times: dict[str, list[float]] = {k: [] for k in ("search", "bare", "bare_load", "search_cpu", "bare_cpu")}
     steps = {"search": 0, "bare": 0}
     for r in range(rounds):
         for v in values:
-            t0 = clock()
+            t0, c0 = wall(), cpu()
             n = bare_run(libsumo, args, v)
-            t1 = clock()
+            t1, c1 = wall(), cpu()
             row = _row(sweep, v)
-            t2 = clock()
+            t2, c2 = wall(), cpu()
             times["bare"].append(t1 - t0)
             times["search"].append(t2 - t1)
+            times["bare_cpu"].append(c1 - c0)
+            times["search_cpu"].append(c2 - c1)
             if r == 0:
                 steps["bare"] += n
                 steps["search"] += row["ticks"]
         libsumo.start(args)  # the bare loop once more, started once and reloaded per run
         for v in values:
-            t0 = clock()
+            t0 = wall()
             bare_run(libsumo, args, v, reload=True)
-            times["bare_load"].append(clock() - t0)
+            times["bare_load"].append(wall() - t0)
         libsumo.close()
     parts: dict[str, list[float]] = {}
     for v in values:
@@ -342,7 +344,8 @@ def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
             parts.setdefault(k, []).append(s)
     ms = {k: 1000 * statistics.median(t) for k, t in times.items()}
     return {"points": points, "runs": points * rounds, "search_ms": ms["search"], "bare_ms": ms["bare"],
-            "bare_load_ms": ms["bare_load"], "ratio": ms["search"] / ms["bare"], "steps": steps,
+            "bare_load_ms": ms["bare_load"], "ratio": ms["search"] / ms["bare"], "search_cpu_ms": ms["search_cpu"],
+            "bare_cpu_ms": ms["bare_cpu"], "ratio_cpu": ms["search_cpu"] / ms["bare_cpu"], "steps": steps,
             "breakdown_ms": {k: 1000 * statistics.median(t) for k, t in parts.items()}}  # fmt: skip
 
 
@@ -350,7 +353,8 @@ def sumo_loop_text(loop: dict[str, Any]) -> str:
     parts = ", ".join(f"{k} {v:.2f}" for k, v in loop["breakdown_ms"].items())
     return (f"\nSUMO run inside a search (validate + run, as the search's job): {loop['search_ms']:.2f} ms; "
             f"bare libsumo loop (start ... close): {loop['bare_ms']:.2f} ms; ratio {loop['ratio']:.2f}x "
-            f"(goal <= {GOALS['sumo_vs_bare']}x)\n"
+            f"(goal <= {GOALS['sumo_vs_bare']}x); CPU time of this process: {loop['search_cpu_ms']:.2f} ms and "
+            f"{loop['bare_cpu_ms']:.2f} ms, {loop['ratio_cpu']:.2f}x\n"
             f"medians of {loop['runs']} runs each ({loop['points']} settings x {loop['runs'] // loop['points']}, "
             f"interleaved); SUMO steps over the {loop['points']} settings: search {loop['steps']['search']}, "
             f"bare {loop['steps']['bare']}\n"

@@ -75,3 +75,17 @@ def test_collector_off_and_no_memory(monkeypatch, capsys) -> None:  # type: igno
             "--tick-n", "0", "--schema-n", "0"]  # fmt: skip
     assert run.main(argv) == 0
     assert "garbage collector off" in capsys.readouterr().out
+
+
+@pytest.mark.skipif(__import__("importlib").util.find_spec("libsumo") is None and not __import__("os").environ.get("CI"),
+                    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)")  # fmt: skip
+def test_the_bare_libsumo_loop_does_the_steps_of_the_search_s_runs() -> None:
+    """benchmarks.falsify --sumo-loop compares like with like: its hand-written libsumo loop runs as many
+    SUMO steps as the case's runs at the same settings (and both sides are measured)."""
+    from benchmarks import falsify
+
+    loop = falsify.sumo_loop(points=4, rounds=1)
+    assert loop["steps"]["bare"] == loop["steps"]["search"] > 4 * 20
+    assert loop["runs"] == 4 and loop["search_ms"] > 0 and loop["bare_ms"] > 0 and loop["bare_load_ms"] > 0
+    assert set(loop["breakdown_ms"]) == {"validate", "system and tree", "SUMO start+close", "SUMO steps", "adapter",
+                                         "tree, collector"}  # fmt: skip

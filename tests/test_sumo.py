@@ -811,3 +811,59 @@ def test_a_vehicle_that_left_ends_its_signals_in_the_trace_when_libsumo_stops_li
         ticks, values = trace.signals[f"ego.{attribute}"]
         assert (ticks[-1], values[-1]) == (k, ENDED), attribute  # ended on that tick, not held on
 
+
+# ---------------------------------------------------------------------------
+# many runs in one process (a worker of a sweep or a search): each as a fresh process would run it
+
+_FRESH = ("import json, sys, btgen_pytrees\nfrom btgen_pytrees.run import run\n"
+          "r = run(btgen_pytrees.load(sys.argv[1]))\n"
+          "print(json.dumps([r.to_json(), r.trace.to_data() if r.trace is not None else None]))\n")
+
+
+def _fresh(path: pathlib.Path) -> list[Any]:
+    done = subprocess.run([sys.executable, "-c", _FRESH, str(path)], capture_output=True, text=True, cwd=ROOT,
+                          timeout=300, check=True)  # fmt: skip
+    return json.loads(done.stdout.splitlines()[-1])  # type: ignore[no-any-return]  # libsumo may warn first
+
+
+@needs_sumo
+def test_runs_one_after_the_other_in_a_process_match_a_fresh_process_byte_for_byte(tmp_path: pathlib.Path) -> None:
+    """Whatever one run leaves in the process - libsumo's state after its close, the scenario read once
+    (read_scenario keeps it), a run that SUMO refused, a run interrupted half-way, a run that took a
+    vehicle over (speed and lane-change modes), another scenario - the next run's JSON report and trace are
+    the bytes a fresh process writes."""
+    cut_in, acc = EXAMPLES / "cut_in.json", EXAMPLES / "acc_hard_brake.json"
+    (tmp_path / "broken").mkdir()
+    (tmp_path / "takeover").mkdir()
+    broken = sumo_case(tmp_path / "broken", entry("C1", action="wait"),
+                       routes=SCENARIO.replace('accel="2.6"', 'accel="fast"'))  # read fine, refused by SUMO  # fmt: skip
+    takeover = sumo_case(tmp_path / "takeover", entry("B1", action="sumo.speed", vehicle="ego", to=30, safe=False),
+                         entry("B2", action="sumo.lane", vehicle="other", lane=0, safe=False),
+                         entry("C1", ["B1"], action="wait", duration=3), name="takeover")  # fmt: skip
+    fresh = {p: _fresh(p) for p in (cut_in, acc, broken, takeover)}
+    assert fresh[broken][0].count('"verdict": "error"') == 1 and fresh[cut_in][1] is not None
+
+    def here(path: pathlib.Path) -> list[Any]:
+        report = run(btgen_pytrees.load(path))
+        return json.loads(json.dumps([report.to_json(), report.trace.to_data() if report.trace is not None else None]))
+
+    def interrupt(ticks: int, _now: float) -> None:
+        if ticks == 20:
+            raise KeyboardInterrupt
+
+    for path in (cut_in, cut_in, takeover, acc, broken, cut_in, takeover, takeover, acc):
+        assert here(path) == fresh[path], path.name
+        if path is not broken:
+            with pytest.raises(KeyboardInterrupt):
+                run(btgen_pytrees.load(path), progress=interrupt)
+    assert here(cut_in) == fresh[cut_in]
+
+
+@needs_sumo
+def test_a_run_that_records_no_trace_has_the_same_report(tmp_path: pathlib.Path) -> None:
+    """A sweep's and a search's runs record no trace (their rows carry none): the report is the same."""
+    for path in (EXAMPLES / "cut_in.json", EXAMPLES / "acc_hard_brake.json", ROOT / "examples" / "fig1.json"):
+        case = btgen_pytrees.load(path)
+        recorded, bare = run(case), run(case, record=False)
+        assert recorded.trace is not None and bare.trace is None
+        assert bare.to_json() == recorded.to_json(), path.name

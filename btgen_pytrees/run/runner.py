@@ -80,6 +80,7 @@ def run_tree(
     require_complete: bool | None = None,
     progress: Callable[[int, float], None] | None = None,
     max_work: int | None = None,
+    record: bool = True,
 ) -> Report:
     """Run *root* (generated from *case*) against *system* until it finishes or times out.
 
@@ -99,11 +100,14 @@ def run_tree(
             Each tick charges the tree's size (entries + criteria + 10); a run whose
             next tick would exceed the budget ends there with verdict ``error``,
             keeping what it found so far
+        record: record the run's trace (``report.trace``: what ``--plot``, ``--replay``
+            and ``--btlog`` draw, and the SUMO scene); ``False`` when nothing will read it
+            (a sweep's or a search's runs): the verdicts, margins and entries are the same
     """
     if system is None:
         system = create_system(case, registry)
     env = root.btgen_env  # type: ignore[attr-defined]
-    collector = Collector(root, trace=trace, record=True)  # record: report.trace, for --plot/--replay/--btlog
+    collector = Collector(root, trace=trace, record=record)  # record: report.trace, for --plot/--replay/--btlog
     see = collector.run
     last = case.ticks - 1
     stop = last if max_work is None else min(last, max_work // work_per_tick(case) - 1)  # the budget's last tick
@@ -181,10 +185,10 @@ def run_tree(
 
 def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None = None,
         require_complete: bool | None = None, progress: Callable[[int, float], None] | None = None,
-        max_work: int | None = None) -> Report:  # fmt: skip
+        max_work: int | None = None, record: bool = True) -> Report:  # fmt: skip
     """Generate *case*'s tree, run it against its system and return the :class:`Report`.
 
-    *max_work*: the work budget (see :func:`run_tree`; default none)."""
+    *max_work*: the work budget, *record*: record the trace (see :func:`run_tree`; default none, yes)."""
     registry = registry if registry is not None else default_registry()
     try:
         system = create_system(case, registry)
@@ -201,7 +205,7 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
                       source=case.source)
     try:
         return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress,
-                        max_work=max_work)
+                        max_work=max_work, record=record)
     finally:
         root.btgen_env.release()  # the tree was made here and goes now: its blackboard clients with it
 

@@ -169,6 +169,7 @@ class SumoSystem:
         self._contacts: frozenset[tuple[str, str]] = frozenset()
         self._lib: Any = None
         self._started = False
+        self._keys: list[tuple[str, str, str, str, tuple[str, ...]]] = []
         self.timer: Callable[[], float] | None = None
         """A clock (e.g. :func:`time.process_time`) to fill :attr:`timing` with; ``None``: no timing."""
         self.timing = dict.fromkeys(("start", "sumo", "adapter", "close"), 0.0)
@@ -204,7 +205,10 @@ class SumoSystem:
             _release(self)
             raise
         self._lib, self._started = lib, True
-        self._namespace = env.namespace + "/signals/"
+        self._namespace = prefix = env.namespace + "/signals/"
+        # each tracked vehicle's blackboard keys, made once: (vid, collided, present, lane, motion keys)
+        self._keys = [(vid, prefix + vid + ".collided", prefix + vid + ".present", prefix + vid + ".lane",
+                       tuple(prefix + vid + "." + a for a in _MOTION)) for vid in self.tracked]  # fmt: skip
         if self.timer:
             self.timing["start"] += self.timer() - t0
         self._step()
@@ -288,15 +292,14 @@ class SumoSystem:
             raise SystemFailure("the SUMO simulation is not running")
         storage, prefix, results = Blackboard.storage, self._namespace, self.results
         collided = self.collided
-        for vid in self.tracked:
-            key = prefix + vid + "."
+        for vid, collided_key, present_key, lane_key, motion in self._keys:
             r = results.get(vid)
-            storage[key + "collided"] = vid in collided
+            storage[collided_key] = vid in collided
             if r is None:
-                storage[key + "present"] = False
-                storage[key + "lane"] = -1
-                for attribute in _MOTION:
-                    storage.pop(key + attribute, None)
+                storage[present_key] = False
+                storage[lane_key] = -1
+                for key in motion:
+                    storage.pop(key, None)
                 continue
             speed = r[_SPEED]
             x, y = r[_POSITION]
@@ -309,16 +312,17 @@ class SumoSystem:
                 ttc = 0.0 if gap <= 0 else gap / closing if closing > 0 else _INF
             else:
                 gap = ttc = _INF
-            storage[key + "present"] = True
-            storage[key + "lane"] = r[_LANE_INDEX]
-            storage[key + "speed"] = speed
-            storage[key + "accel"] = r[_ACCEL]
-            storage[key + "x"] = x
-            storage[key + "y"] = y
-            storage[key + "lateral"] = r[_LATERAL]
-            storage[key + "distance"] = r[_DISTANCE]
-            storage[key + "gap"] = gap
-            storage[key + "ttc"] = ttc
+            storage[present_key] = True
+            storage[lane_key] = r[_LANE_INDEX]
+            k_speed, k_accel, k_x, k_y, k_lateral, k_distance, k_gap, k_ttc = motion  # the order of _MOTION
+            storage[k_speed] = speed
+            storage[k_accel] = r[_ACCEL]
+            storage[k_x] = x
+            storage[k_y] = y
+            storage[k_lateral] = r[_LATERAL]
+            storage[k_distance] = r[_DISTANCE]
+            storage[k_gap] = gap
+            storage[k_ttc] = ttc
         storage[prefix + "sim.collisions"] = self.collisions
         storage[prefix + "sim.vehicles"] = self.vehicle_count
         if not self.spawns and self.vehicle_count == 0 and self._lib.simulation.getMinExpectedNumber() == 0:

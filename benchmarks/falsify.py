@@ -30,8 +30,10 @@ between a real passing and a real failing run).
 search's job does it) with the same setting run by a bare libsumo loop written by hand
 (:func:`bare_run`: start, set speeds, step, change lane, read the gap, close - the same
 SUMO steps, counted and printed), both measured in this process, interleaved run by
-run, medians over 20 settings x 5 rounds; also the bare loop reloading with
-``libsumo.load`` instead of start ... close, and where the search's run spends its time.
+run, medians over 20 settings x 5 rounds (wall clock, and CPU time of this process: SUMO
+runs in it); also the bare loop alone run after run, started and closed against started
+once and reloaded with ``libsumo.load`` (libsumo's load is its close plus its start: the
+two cost the same), and where the search's run spends its time.
 """
 
 from __future__ import annotations
@@ -316,7 +318,7 @@ def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
     wall, cpu = time.perf_counter, time.process_time
     bare_run(libsumo, args, values[0])  # warm-up (imports, caches)
     _row(sweep, values[0])
-    times: dict[str, list[float]] = {k: [] for k in ("search", "bare", "bare_load", "search_cpu", "bare_cpu")}
+    times: dict[str, list[float]] = {k: [] for k in ("search", "bare", "bare_block", "bare_load", "search_cpu", "bare_cpu")}
     steps = {"search": 0, "bare": 0}
     for r in range(rounds):
         for v in values:
@@ -332,7 +334,11 @@ def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
             if r == 0:
                 steps["bare"] += n
                 steps["search"] += row["ticks"]
-        libsumo.start(args)  # the bare loop once more, started once and reloaded per run
+        for v in values:  # the bare loop alone, run after run: started and closed ...
+            t0 = wall()
+            bare_run(libsumo, args, v)
+            times["bare_block"].append(wall() - t0)
+        libsumo.start(args)  # ... and started once, reloaded per run
         for v in values:
             t0 = wall()
             bare_run(libsumo, args, v, reload=True)
@@ -344,7 +350,7 @@ def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
             parts.setdefault(k, []).append(s)
     ms = {k: 1000 * statistics.median(t) for k, t in times.items()}
     return {"points": points, "runs": points * rounds, "search_ms": ms["search"], "bare_ms": ms["bare"],
-            "bare_load_ms": ms["bare_load"], "ratio": ms["search"] / ms["bare"], "search_cpu_ms": ms["search_cpu"],
+            "bare_block_ms": ms["bare_block"], "bare_load_ms": ms["bare_load"], "ratio": ms["search"] / ms["bare"], "search_cpu_ms": ms["search_cpu"],
             "bare_cpu_ms": ms["bare_cpu"], "ratio_cpu": ms["search_cpu"] / ms["bare_cpu"], "steps": steps,
             "breakdown_ms": {k: 1000 * statistics.median(t) for k, t in parts.items()}}  # fmt: skip
 
@@ -358,7 +364,8 @@ def sumo_loop_text(loop: dict[str, Any]) -> str:
             f"medians of {loop['runs']} runs each ({loop['points']} settings x {loop['runs'] // loop['points']}, "
             f"interleaved); SUMO steps over the {loop['points']} settings: search {loop['steps']['search']}, "
             f"bare {loop['steps']['bare']}\n"
-            f"bare loop reloading with libsumo.load instead of start ... close: {loop['bare_load_ms']:.2f} ms\n"
+            f"the bare loop alone, run after run: start ... close {loop['bare_block_ms']:.2f} ms, started once and "
+            f"reloaded with libsumo.load {loop['bare_load_ms']:.2f} ms\n"
             f"the search's run, ms (medians): {parts}\n")  # fmt: skip
 
 

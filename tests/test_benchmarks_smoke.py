@@ -86,6 +86,6 @@ def test_the_bare_libsumo_loop_does_the_steps_of_the_search_s_runs() -> None:
 
     loop = falsify.sumo_loop(points=4, rounds=1)
     assert loop["steps"]["bare"] == loop["steps"]["search"] > 4 * 20
-    assert loop["runs"] == 4 and loop["search_ms"] > 0 and loop["bare_ms"] > 0 and loop["bare_load_ms"] > 0
+    assert loop["runs"] == 4 and min(loop[k] for k in ("search_ms", "bare_ms", "bare_block_ms", "bare_load_ms")) > 0
     assert set(loop["breakdown_ms"]) == {"validate", "system and tree", "SUMO start+close", "SUMO steps", "adapter",
                                          "tree, collector"}  # fmt: skip

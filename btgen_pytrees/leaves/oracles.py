@@ -29,12 +29,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import py_trees
 from py_trees.common import Status
 
 from ..contracts.environment import Environment
 from ..expressions import ExpressionError, conjunction, format_number, why_false
 from ..model import Criterion
+from .node import Node
 from .simulated import reached
 
 __all__ = ["Outcome", "Oracle", "Record", "Period", "Final"]
@@ -65,7 +65,7 @@ full signal history). What the reports need is kept apart and always: the first 
 last values read (:class:`Outcome`). Unbounded, a 485-byte case reached 3 GB."""
 
 
-class Oracle(py_trees.behaviour.Behaviour):
+class Oracle(Node):
     """Base: evaluates its criterion's expression against the blackboard signals."""
 
     def __init__(self, criterion: Criterion, env: Environment):

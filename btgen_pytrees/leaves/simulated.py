@@ -14,12 +14,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import py_trees
 from py_trees.common import Status
 
 from ..contracts.environment import Environment
 from ..expressions import ExpressionError
 from ..model import Entry
+from .node import Node
 
 __all__ = ["SimulatedLeaf", "Set", "Ramp", "Hold", "Wait", "Until", "reached"]
 
@@ -29,7 +29,7 @@ def reached(elapsed: float, duration: float) -> bool:
     return elapsed >= duration - 1e-9 * max(1.0, abs(duration))
 
 
-class SimulatedLeaf(py_trees.behaviour.Behaviour):
+class SimulatedLeaf(Node):
     """Base: remembers its entry, its environment and when it started.
 
     ``client`` is its py_trees blackboard client, with the keys of :meth:`keys`
@@ -38,13 +38,16 @@ class SimulatedLeaf(py_trees.behaviour.Behaviour):
     """
 
     def __init__(self, entry: Entry, env: Environment):
-        super().__init__(name=entry.name)
+        super().__init__(entry.name)
         self.entry = entry
         self.env = env
         self.params = entry.params
         self.started = 0.0
-        reads, writes = self.keys()
-        self.client = env.attach(self, reads=reads, writes=writes) if reads or writes else None
+        self.client = None
+        if type(self).keys is not SimulatedLeaf.keys:  # a leaf class without keys (hold, wait) builds no lists
+            reads, writes = self.keys()
+            if reads or writes:
+                self.client = env.attach(self, reads=reads, writes=writes)
 
     def keys(self) -> tuple[list[str], list[str]]:
         """The blackboard keys this leaf reads and writes (absolute); none by default."""

@@ -30,6 +30,7 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from ..contracts.environment import Environment
+from .node import Node
 
 __all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
 
@@ -61,7 +62,7 @@ class TreeRoot(py_trees.composites.Parallel):
         yield from super().tick()
 
 
-class RunStart(py_trees.behaviour.Behaviour):
+class RunStart(Node):
     """Reset the tree's blackboard namespace and start the run clock; always succeeds."""
 
     def __init__(self, env: Environment, name: str = "start"):
@@ -76,7 +77,7 @@ class RunStart(py_trees.behaviour.Behaviour):
         return Status.SUCCESS
 
 
-class Completion(py_trees.decorators.Decorator):
+class Completion(py_trees.decorators.Decorator, Node):
     """Pass the child's status through; when it succeeds, mark it done on the blackboard.
 
     Args:
@@ -100,7 +101,7 @@ class Completion(py_trees.decorators.Decorator):
         return status
 
 
-class Trigger(py_trees.behaviour.Behaviour):
+class Trigger(Node):
     """The virtual trigger node: wait until predecessors have finished.
 
     Args:
@@ -286,7 +287,7 @@ class WakingParallel(py_trees.composites.Parallel):
         yield self
 
 
-class OrMember(py_trees.decorators.Decorator):
+class OrMember(py_trees.decorators.Decorator, Node):
     """Make an ``||`` group behave as a real OR under ``SuccessOnOne``.
 
     py_trees' :class:`~py_trees.common.ParallelPolicy.SuccessOnOne` fails as soon

@@ -1,0 +1,81 @@
+"""The base of the generator's own py_trees nodes: :class:`Node`, a ``Behaviour`` that starts cheaper.
+
+``py_trees.behaviour.Behaviour.__init__`` gives every node a ``uuid.uuid4()``: sixteen bytes from
+``os.urandom`` (a system call per node) passed through ``UUID``'s checks, about half of what building
+a leaf costs - 100,000 system calls for a 100,000-entry chain. :class:`Node` sets the same attributes
+to the same values as ``Behaviour.__init__``, with two differences:
+
+* its id is a version-4 UUID made from 128 bits of a random generator of this module's own (seeded
+  from ``os.urandom``, and again in a forked child, as :mod:`random` does for its own), given to
+  ``uuid.UUID(int=...)``. What py_trees reads an id for - telling nodes apart (``add_child`` returns
+  it, ``remove_child_by_id``, ``BehaviourTree.prune_subtree``, the display and snapshot visitors) -
+  needs it unique, not unpredictable; the host's :mod:`random` state is never touched;
+* ``iterator``, the ``tick()`` generator ``Behaviour.__init__`` makes and ``stop()`` makes anew, is
+  made when first read: py_trees never reads it (it ticks through fresh ``tick()`` calls), and a
+  generator per node is one object in six that the garbage collector would walk at every full
+  collection while the tree is built. Until it is read or the node has stopped once, it is not in
+  the node's ``vars()``.
+
+``tests/test_node.py`` compares a :class:`Node` with a stock ``Behaviour`` attribute by attribute,
+so a py_trees release that changes ``Behaviour.__init__`` fails there, not in a user's tree.
+
+Every node class of this package derives from it (the simulated leaves, the oracles, the wiring's
+leaves and decorators: ``class Completion(py_trees.decorators.Decorator, Node)`` puts it between the
+decorator and ``Behaviour``, so ``Decorator.__init__`` reaches it); the Sequences and Parallels the
+generator builds are py_trees' own classes, and so is every user leaf.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+from typing import Any
+from uuid import UUID
+
+import py_trees
+from py_trees.common import BlackBoxLevel, Status
+
+__all__ = ["Node", "new_id"]
+
+_random = random.Random()  # seeded from os.urandom
+if hasattr(os, "register_at_fork"):  # pragma: no branch - POSIX
+    os.register_at_fork(after_in_child=_random.seed)  # a forked child draws other ids than its parent
+_bits = _random.getrandbits
+_V4_MASK = ~((0xF << 76) | (0x3 << 62)) & ((1 << 128) - 1)  # version (bits 76-79) and variant (62-63) cleared
+_V4 = (4 << 76) | (0x2 << 62)  # version 4, variant RFC 4122: what uuid.uuid4() sets
+
+
+def new_id() -> UUID:
+    """A random version-4 UUID, as ``uuid.uuid4()`` gives, without a system call."""
+    return UUID(int=_bits(128) & _V4_MASK | _V4)
+
+
+class _Iterator:
+    """``node.iterator``: a ``node.tick()`` generator, made when first read (then an attribute of the node)."""
+
+    def __get__(self, node: "Node | None", owner: type | None = None) -> Any:
+        if node is None:
+            return self
+        node.iterator = node.tick()
+        return node.iterator
+
+
+class Node(py_trees.behaviour.Behaviour):
+    """``py_trees.behaviour.Behaviour`` whose ``__init__`` draws its id without a system call and
+    leaves ``iterator`` to its first reader (see the module)."""
+
+    iterator: Any = _Iterator()
+
+    def __init__(self, name: str):
+        if not isinstance(name, str):
+            raise TypeError(f"a behaviour name should be a string, but you passed in {type(name)}")
+        self.id = new_id()
+        self.name: str = name
+        self.blackboards: list[py_trees.blackboard.Client] = []
+        self.qualified_name = f"{self.__class__.__qualname__}/{name}"
+        self.status = Status.INVALID
+        self.parent: py_trees.behaviour.Behaviour | None = None
+        self.children: list[py_trees.behaviour.Behaviour] = []
+        self.logger = py_trees.logging.Logger(name)
+        self.feedback_message = ""
+        self.blackbox_level = BlackBoxLevel.NOT_A_BLACKBOX

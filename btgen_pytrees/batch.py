@@ -17,9 +17,10 @@ import os
 import signal
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
-from typing import Any, Callable, Iterable, Sequence, TextIO
+from typing import Any, Callable, Iterable, Iterator, Sequence, TextIO
 
 from .construct import generate
 from .errors import MAX_LINE, MAX_PROBLEMS, ExitCode, Interrupt, InvalidTestCase, is_interrupt, plural, printable, shorten, xml_safe
@@ -279,6 +280,30 @@ def _stop(signum: int, frame: object) -> None:
     raise _Stop(signum)
 
 
+_HELD = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """Ctrl-C and SIGTERM wait (blocked, not lost) while workers are forked.
+
+    A signal that arrives during ``fork()`` is handled in the parent inside the
+    interpreter's after-fork hooks, where an exception is printed and dropped:
+    the CLI's handler would raise its :class:`~.errors.Interrupt` into the void
+    and ignore the signals after it, so the command would run on. Held, the
+    signal is handled after the fork, where it stops the command. The child
+    starts with them blocked too and unblocks them once its own handlers are set.
+    """
+    if not hasattr(signal, "pthread_sigmask"):  # Windows: no fork either
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
 def _worker(conn: Connection) -> None:
     """A worker process: run tasks from *conn* one at a time until told to stop.
 
@@ -288,6 +313,8 @@ def _worker(conn: Connection) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         signal.signal(signal.SIGTERM, _stop)
+        if hasattr(signal, "pthread_sigmask"):  # forked with them held (_signals_held): a SIGTERM waiting now stops it
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
         while True:
             try:
                 task = conn.recv()
@@ -415,7 +442,8 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
         else:
             context = multiprocessing.get_context()
             pending = list(range(len(paths)))[::-1]  # a stack: pop() gives input order
-            slots = [_Slot(context) for _ in range(max(1, min(workers, len(paths))))]
+            with _signals_held():  # every worker is in slots before a Ctrl-C is handled, so none is left behind
+                slots = [_Slot(context) for _ in range(max(1, min(workers, len(paths))))]
             while done < len(paths):
                 for n, slot in enumerate(slots):
                     if slot.task is None and pending:
@@ -426,7 +454,8 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                         except OSError:  # the idle worker died (killed from outside): a new one, task back
                             pending.append(task)
                             _stop_all([slot])
-                            slots[n] = _Slot(context)
+                            with _signals_held():
+                                slots[n] = _Slot(context)
                 busy = [s for s in slots if s.task is not None]
                 if not busy:  # every idle worker was replaced just now: hand out the tasks again
                     continue
@@ -445,7 +474,8 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                             outcome = Outcome(paths[index], EXIT_ERROR, f"error: {_death(slot.process.exitcode)}",
                                               [f"{paths[index]}: error: {_death(slot.process.exitcode)}"], result="ERROR")  # fmt: skip
                             _stop_all([slot])
-                            slots[slots.index(slot)] = _Slot(context)
+                            with _signals_held():
+                                slots[slots.index(slot)] = _Slot(context)
                         else:
                             slot.task = None
                         results[index] = outcome

@@ -88,6 +88,14 @@ def test_no_failure_is_exit_0_and_says_what_was_covered(tmp_path: pathlib.Path, 
     assert report["baselines"]["uniform_random"]["missed_share_95"] == pytest.approx(3 / 24)
 
 
+def test_the_table_goes_to_stdout_from_the_command_line(tmp_path: pathlib.Path) -> None:
+    """The real CLI process sends file descriptor 1 to stderr for user code; the table must still reach stdout."""
+    done = cli("falsify", str(ISLAND), "--budget", "16", "--jobs", "1")
+    assert done.returncode == 1, done.stderr
+    assert "FALSIFIED" in done.stdout and "uniform random" in done.stdout
+    assert "FALSIFIED" not in done.stderr
+
+
 @pytest.mark.parametrize("search, where", [
     ({"method": "annealing"}, "/search/method"),
     ({"budget": 0}, "/search/budget"),
@@ -313,3 +321,96 @@ def test_the_benchmark_runs() -> None:
     row = bench.search_case("island_2d", "auto", 2, 150)
     assert row["found"] == 2 and row["median"] <= 150 and row["boundary_points"] >= 2
     assert row["boundary_max"] <= 1.0  # within the declared resolution of the ellipse
+
+
+# -- Ctrl-C ------------------------------------------------------------------------------------------
+
+
+def _descendants(pid: int) -> set[int]:
+    """The processes below *pid* (from /proc), e.g. the pool's workers."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                stat = pathlib.Path(f"/proc/{entry}/stat").read_text()
+            except OSError:
+                continue
+            children.setdefault(int(stat.rsplit(")", 1)[1].split()[1]), []).append(int(entry))
+    found, todo = set(), [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found.add(child)
+            todo.append(child)
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return pathlib.Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc and a pseudo-terminal")
+@pytest.mark.parametrize("jobs, group", [("1", True), ("2", True), ("2", False)])
+def test_ctrl_c_keeps_what_was_found(tmp_path: pathlib.Path, jobs: str, group: bool) -> None:
+    """Ctrl-C in a terminal (SIGINT to the whole process group, or to falsify alone) once the progress
+    line shows runs: exit 130, the --json report holds the runs so far and parses, no worker is left."""
+    import pty
+    import select
+    import signal
+    import time
+
+    path = write(tmp_path, island(search={"budget": 100000, "stop": "all"}))
+    report = tmp_path / "found.json"
+    terminal, stderr = pty.openpty()  # the progress line is shown on a terminal only
+    process = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "falsify", path, "--jobs", jobs, "--json", str(report)],
+                               cwd=tmp_path, stdout=subprocess.PIPE, stderr=stderr, text=True, start_new_session=True,
+                               env={**os.environ, "PYTHONPATH": str(ROOT)})  # fmt: skip
+    os.close(stderr)
+    seen, shown, workers = "", 0, set()
+    deadline = time.monotonic() + 120
+    try:
+        while shown < 24 and time.monotonic() < deadline:
+            if select.select([terminal], [], [], 0.5)[0]:
+                seen += os.read(terminal, 4096).decode(errors="replace")
+                runs = [int(n) for n in __import__("re").findall(r"falsify: (\d+)/", seen)]
+                shown = max(runs, default=0)
+            workers |= _descendants(process.pid)
+        assert shown >= 24, seen
+        workers |= _descendants(process.pid)
+        if group:
+            os.killpg(process.pid, signal.SIGINT)
+        else:
+            process.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + 60
+        while process.poll() is None and time.monotonic() < deadline:  # keep reading: a full terminal would block it
+            if select.select([terminal], [], [], 0.2)[0]:
+                try:
+                    seen += os.read(terminal, 4096).decode(errors="replace")
+                except OSError:  # the terminal's other end closed: falsify has exited
+                    break
+        out, _ = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        while select.select([terminal], [], [], 0.2)[0]:
+            try:
+                chunk = os.read(terminal, 4096)
+            except OSError:
+                break
+            if not chunk:
+                break
+            seen += chunk.decode(errors="replace")
+        os.close(terminal)
+    assert process.returncode == 130, seen
+    assert "interrupted by SIGINT" in seen and "Traceback" not in seen
+    data = json.loads(report.read_text())
+    assert data["interrupted"] is True
+    assert len(data["runs"]) >= shown and [r["index"] for r in data["runs"]] == list(range(len(data["runs"])))
+    assert all(r["verdict"] in ("pass", "fail") for r in data["runs"])
+    assert "runs" in out
+    if jobs != "1" or workers:
+        time.sleep(0.5)
+        assert workers and not [w for w in workers if _alive(w)], workers

@@ -26,7 +26,7 @@ from ..run.plot import plot_format
 from ..run.replay import replay_html
 from ..errors import ExitCode, InvalidTestCase, Problem
 from ..leaves import Registry, default_registry
-from ..output import OutputError, check_target, commit
+from ..output import OutputError, check_target, commit, emit
 from ..sweep.case import Sweep, Variation, load_sweep
 from ..sweep.command import Refused, file_name, make_executor, run_options, run_variations
 from ..sweep.jobs import VariationOutcome
@@ -179,10 +179,10 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     if args.plot:
         outputs.append((args.plot, search_plot(search, data, plot_format(args.plot))))
     commit(outputs)
-    sys.stdout.write(table(data))
+    emit(table(data))  # the real stdout (the CLI sends file descriptor 1 to stderr for user code)
     if signum is not None:
-        print(f"btgen_pytrees: interrupted by {signal.Signals(signum).name} after {len(search.runs)} runs; what was found is kept",
-              file=sys.stderr)  # fmt: skip
+        emit(f"btgen_pytrees: interrupted by {signal.Signals(signum).name} after {len(search.runs)} runs; what was found is kept\n",
+             sys.stderr)  # fmt: skip
         return 128 + signum
     return ExitCode.FAIL if data["failures"] else ExitCode.OK
 

@@ -4,9 +4,9 @@ A 1,000-variation sweep of the fig1 case (``examples/fig1_sweep.json`` with the
 ramp's top speed swept over 1,000 values) is run
 
 * in this process, one variation after the other (the floor: no pool at all);
-* on the local process pool (:func:`btgen_pytrees.batch.process`) with 1 and 2 workers;
+* on the local process pool (:func:`btgen_pytrees.parallel.process`) with 1 and 2 workers;
 * on a 2-worker ``distributed.LocalCluster`` (worker processes, one thread each)
-  through :class:`~btgen_pytrees.sweep.executors.DaskExecutor`;
+  through :class:`~btgen_pytrees.parallel.dask.DaskExecutor`;
 
 and reports runs per second for each, the speed-up from 1 to 2 local workers
 (goal ≥ 1.8) and the Dask overhead over the local pool at 2 workers (goal ≤ 15 %).
@@ -89,7 +89,7 @@ def measure(data: dict[str, Any], source: str, repeats: int, dask: bool = True) 
         try:
             from distributed import LocalCluster
 
-            from btgen_pytrees.sweep.executors import DaskExecutor
+            from btgen_pytrees.parallel.dask import DaskExecutor
         except ImportError:
             results["dask"] = "skipped: distributed is not installed (pip install -e '.[dask]')"
         else:

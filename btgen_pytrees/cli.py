@@ -13,39 +13,43 @@ import argparse
 import fnmatch
 import os
 import signal
+import stat
 import sys
 from difflib import get_close_matches
-from typing import TYPE_CHECKING, Any, Callable, Iterable, NoReturn, Sequence, TextIO
+from typing import Any, Callable, Iterable, NoReturn, Sequence, TextIO
 
 from . import __version__
 from . import batch
 from .construct import generate
-from .errors import MAX_PROBLEMS, UNSAFE, ExitCode, Interrupt, InvalidTestCase, Problem, printable
-from .leaves import FactoryError, PluginError, Registry, default_registry, loads_user_code
-from .loader import load, load_json, schema_for, validate
+from .errors import MAX_PROBLEMS, UNSAFE, ExitCode, Interrupt, InvalidTestCase, Problem, UsageError, UserError, printable
+from .leaves import Registry, default_registry, loads_user_code
+from .loader import MAX_FILE_BYTES, load, load_json, parse_json, schema_for, validate
 from .loader import MAX_WORK, check_work
+from .model import TestCase
 from .overlap import warning_lines
+from .parallel import Interrupted, Outcome, merge_junit, process, progress_stream, summary
 from .progress import terminal_progress
-from .output import OutputError, check_distinct, check_target, commit, divert_stdout, emit, is_direct, own_stdout
-from .output import on_stdout, same_file, stdout_isatty
+from .output import check_distinct, check_target, commit, divert_stdout, emit, is_direct, own_stdout
+from .output import on_stdout, report_outputs, same_file, stdout_isatty
 from .supervise import supervised
 from .render import FORMATS, JSON_INDENT_LIMIT, GraphvizMissing, render_chunks
 from .render.dot import png_depth
+from .run import run
+from .run.btlog import BtlogError, btlog_bytes, check_btlog
+from .run.export import ExportUnavailable, export_format, require_pyarrow, table_bytes
+from .run.plot import PlotUnavailable, plot_bytes, plot_format, require_matplotlib
+from .run.replay import replay_html
+from .run.report import Report
 from .systems import SystemSpec
 from .falsify.command import add_arguments as falsify_arguments, cmd_falsify
 from .sweep.case import has_variations
-from .sweep.command import Refused, dask_batch_args, job_run_variations, run_sweep
+from .sweep.command import make_executor, resolved_system, run_options, run_sweep, ship
 from .sweep.command import cmd_expand as expand_sweep
-from .sweep.overrides import ParameterError, choose, given_values, parse_set, read_params
+from .sweep.overrides import choose, given_values, parse_set, read_params
 from .timeline import timeline
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .model import TestCase
-    from .run.report import Report
 
 __all__ = ["main", "MAX_JOBS"]
 
-EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = ExitCode.OK, ExitCode.FAIL, ExitCode.INVALID, ExitCode.INTERNAL
 COMMANDS = ("show", "validate", "run", "expand", "falsify", "schema")
 
 MAX_JOBS = 64
@@ -57,10 +61,6 @@ SUFFIX_FORMATS = {".svg": "svg", ".png": "png", ".dot": "dot", ".gv": "dot", ".j
 
 FORMAT_SUFFIXES = {"unicode": ".txt", "ascii": ".txt", "matrix": ".txt", "btcpp": ".xml"}
 BINARY_FORMATS = ("png",)
-
-
-class UsageError(Exception):
-    """A command line that cannot work; one line on stderr, exit 2, nothing run."""
 
 
 def _can_encode(stream: TextIO, text: str = "·…") -> bool:
@@ -91,7 +91,7 @@ def _report_invalid(error: InvalidTestCase) -> int:
         _err(problem.render(error.source))
     if len(problems) > MAX_PROBLEMS:
         _err(f"{error.source}: … and {len(problems) - MAX_PROBLEMS} more problems")
-    return EXIT_INVALID
+    return ExitCode.INVALID
 
 
 def _registry(args: argparse.Namespace) -> Registry:
@@ -132,19 +132,8 @@ def _write_stdout(data: str | bytes | Iterable[str | bytes], fmt: str) -> None:
 
 
 def _check_output(path: str | None, option: str, inputs: Sequence[str], made_later: bool = False) -> None:
-    if path is None:
-        return
-    try:
-        check_target(path, option, inputs, made_later=made_later)
-    except OutputError as problem:
-        raise UsageError(str(problem)) from None
-
-
-def _check_distinct(targets: Iterable[tuple[str, str | None]]) -> None:
-    try:
-        check_distinct(targets)
-    except OutputError as problem:
-        raise UsageError(str(problem)) from None
+    if path is not None:
+        check_target(path, option, inputs, made_later=made_later)  # OutputError: a usage error
 
 
 def _check_out_dir(args: argparse.Namespace, files: list[str], writes_json: bool) -> None:
@@ -185,9 +174,9 @@ def _make_out_dir(args: argparse.Namespace) -> None:
 # -- batch ----------------------------------------------------------------------------------------
 
 
-def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.Outcome],
-           job_args: Callable[[int], tuple[object, ...]], *, summary: bool = True,
-           after: Callable[[list[batch.Outcome]], None] | None = None) -> int:  # fmt: skip
+def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., Outcome],
+           job_args: Callable[[int], tuple[object, ...]], *,
+           after: Callable[[list[Outcome]], None] | None = None) -> int:  # fmt: skip
     """Process *files* in worker processes; write each file's outputs as it finishes, then a summary.
 
     The output directory is made when the first output is written, so a batch
@@ -195,7 +184,7 @@ def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.
     """
     made: list[bool] = []
 
-    def write(outcome: batch.Outcome) -> None:
+    def write(outcome: Outcome) -> None:
         outputs = [(t, d) for t, d in outcome.outputs if t != "-"]
         if not outputs:
             return
@@ -205,26 +194,25 @@ def _batch(args: argparse.Namespace, files: list[str], job: Callable[..., batch.
         try:
             outcome.written = commit(outputs)
         except OSError as exc:
-            outcome.code, outcome.result = max(outcome.code, EXIT_INTERNAL), "ERROR"
+            outcome.code, outcome.result = max(outcome.code, ExitCode.INTERNAL), "ERROR"
             outcome.summary = f"cannot write outputs: {exc.strerror or exc}"
         outcome.outputs = [(t, d) for t, d in outcome.outputs if t == "-"]
 
     try:
         outcomes = _process(args, job, [job_args(i) for i in range(len(files))], files, on_result=write)
-    except batch.Interrupted as stop:
+    except Interrupted as stop:
         for outcome in stop.outcomes:
             _problems(outcome, args.quiet)
-        _print(batch.summary(stop.outcomes))
+        _print(summary(stop.outcomes))
         _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}; files not run are marked NOT RUN")
         return 128 + stop.signum
     if after is not None:
         after(outcomes)
-    if summary:
-        _print(batch.summary(outcomes))
+    _print(summary(outcomes))
     return max(o.code for o in outcomes)
 
 
-def _problems(outcome: batch.Outcome, quiet: bool = False) -> None:
+def _problems(outcome: Outcome, quiet: bool = False) -> None:
     """A file's problems on stderr, then its warnings (capped where they were made) unless *quiet*."""
     for line in outcome.problems[: MAX_PROBLEMS + 1]:
         _err(line)
@@ -232,13 +220,13 @@ def _problems(outcome: batch.Outcome, quiet: bool = False) -> None:
         _err(line)
 
 
-def _process(args: argparse.Namespace, job: Callable[..., batch.Outcome], job_args: list[tuple[object, ...]],
-             files: list[str], on_result: Callable[[batch.Outcome], None] | None = None) -> list[batch.Outcome]:  # fmt: skip
+def _process(args: argparse.Namespace, job: Callable[..., Outcome], job_args: list[tuple[object, ...]],
+             files: list[str], on_result: Callable[[Outcome], None] | None = None) -> list[Outcome]:  # fmt: skip
     """Run *job* over *files* (in worker processes when there are several); print each file's problems."""
     workers = min(args.jobs, len(files))
     executor = getattr(args, "dask", None)  # run --executor dask (btgen_pytrees.sweep.command)
     try:
-        outcomes = batch.process(job, job_args, files, workers=workers, progress=batch.progress_stream(),
+        outcomes = process(job, job_args, files, workers=workers, progress=progress_stream(),
                                  on_result=on_result, executor=executor)  # fmt: skip
     finally:
         if executor is not None:
@@ -313,7 +301,7 @@ def cmd_show(args: argparse.Namespace) -> int:
             _check_out_dir(args, files, writes_json=suffix == ".json")
         targets = _targets(args, files, [suffix])
 
-        def shown(outcomes: list[batch.Outcome]) -> None:
+        def shown(outcomes: list[Outcome]) -> None:
             for outcome in outcomes:
                 for target, data in outcome.outputs:
                     if target == "-" and isinstance(data, str):
@@ -344,32 +332,30 @@ def cmd_show(args: argparse.Namespace) -> int:
         _write_stdout(chunks, fmt)
     else:
         commit([(args.output, chunks)])
-    return EXIT_OK
+    return ExitCode.OK
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
     files = _expand(args)
     try:
         outcomes = _process(args, batch.job_validate, [(tuple(args.plugin or ()), args.max_variations)] * len(files), files)
-    except batch.Interrupted as stop:  # Ctrl-C/SIGTERM while a sweep's variations are checked: 130/143, not an error
+    except Interrupted as stop:  # Ctrl-C/SIGTERM while a sweep's variations are checked: 130/143, not an error
         for outcome in stop.outcomes:
             _problems(outcome, args.quiet)
-        checked = sum(o.code != batch.NOT_RUN for o in stop.outcomes)
+        checked = sum(o.code != ExitCode.INTERRUPTED for o in stop.outcomes)
         _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after checking {checked} of {_count(len(files), 'file')}")
         return 128 + stop.signum
     if not args.quiet:
         for outcome in outcomes:
-            if outcome.code == EXIT_OK:
+            if outcome.code == ExitCode.OK:
                 _print(f"{outcome.path}: {outcome.summary}\n")
         if len(files) > 1:
-            _print(batch.summary(outcomes).splitlines()[-1] + "\n")
+            _print(summary(outcomes).splitlines()[-1] + "\n")
     return max(o.code for o in outcomes)
 
 
 def _plot_check(path: str) -> str:
     """The plot format of *path* (or of a bare ``svg``/``png``/``html``), with matplotlib importable."""
-    from .run.plot import PlotUnavailable, plot_format, require_matplotlib
-
     try:
         fmt = path.lower() if path.lower() in ("svg", "png", "html") else plot_format(path)
         require_matplotlib()
@@ -418,8 +404,6 @@ def _btlog_tree(args: argparse.Namespace, case: TestCase, registry: Registry) ->
     """For --btlog: the tree to log (generated like the run's), checked before the run: at most 65,535 nodes."""
     if not args.btlog:
         return None
-    from .run.btlog import BtlogError, check_btlog
-
     root = generate(case, registry=registry)
     try:
         check_btlog(root, case.timeout + case.tick)
@@ -433,9 +417,6 @@ def _replay_outputs(args: argparse.Namespace, report: Report, case: TestCase, re
     """The --replay page and the --btlog file, drawn from the run's trace on a tree generated alike."""
     if not (args.replay or args.btlog):
         return []
-    from .run.btlog import btlog_bytes
-    from .run.replay import replay_html
-
     outputs = []
     if args.replay:
         outputs.append((args.replay, replay_html(report, case, generate(case, registry=registry), max_depth=args.max_depth,
@@ -471,8 +452,6 @@ def _sweep_alone(args: argparse.Namespace, path: str, target: str | None, plot: 
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .run import run
-
     if args.scheduler and args.executor != "dask":
         raise UsageError("--scheduler applies to --executor dask only; add --executor dask to run there")
 
@@ -493,11 +472,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             _check_out_dir(args, files, writes_json=True)
         suffixes = [".report.json", ".junit.xml"] + ([f".{plot}"] if plot else [])
         targets = _targets(args, files, suffixes)
-        _check_distinct([("--junit", args.junit)] + [("--out-dir", t + x) for t in targets if t for x in suffixes])
+        check_distinct([("--junit", args.junit)] + [("--out-dir", t + x) for t in targets if t for x in suffixes])
 
-        def junit(outcomes: list[batch.Outcome]) -> None:
+        def junit(outcomes: list[Outcome]) -> None:
             if args.junit:
-                commit([(args.junit, batch.merge_junit(outcomes))])
+                commit([(args.junit, merge_junit(outcomes))])
 
         system = _system(args)
         if len(files) == 1 and _is_sweep(files[0]):  # a sweep given alone runs its variations, in any form
@@ -505,7 +484,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.variations:
             if args.executor == "dask":
                 raise UsageError("--variations runs each sweep on one local worker; with --executor dask run each sweep alone")
-            return _batch(args, files, job_run_variations,
+            return _batch(args, files, batch.job_run_variations,
                           lambda i: (tuple(args.plugin or ()), targets[i], plot, bool(args.junit), system, args.max_work,
                                      args.require_complete, args.max_variations),
                           after=junit)  # fmt: skip
@@ -521,19 +500,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     outputs_named = ("json", "junit", "plot", "replay", "btlog", "signals_out")
     for option in outputs_named:
         _check_output(getattr(args, option), f"--{option.replace('_', '-')}", [args.file])
-    _check_distinct([(f"--{option.replace('_', '-')}", getattr(args, option)) for option in outputs_named])
+    check_distinct([(f"--{option.replace('_', '-')}", getattr(args, option)) for option in outputs_named])
     _replay_check(args)
     if args.signals_out:  # a bad suffix or a missing pyarrow: found out before the run
-        from .run.export import ExportUnavailable, export_format, require_pyarrow
-
         try:
             if export_format(args.signals_out) == "parquet":
                 require_pyarrow()
         except (ValueError, ExportUnavailable) as exc:
             raise UsageError(str(exc)) from None
     if args.plot:  # check before running: a missing extra or a bad suffix should not cost a run
-        from .run.plot import plot_format
-
         _plot_check(args.plot)
         plot_format(args.plot)
     data = _chosen(args) or load_json(args.file)
@@ -560,18 +535,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         for pattern in args.signals:
             if not any(fnmatch.fnmatchcase(name, pattern) for name in report.trace.signals):
                 _err(f"btgen_pytrees: warning: --signals {pattern!r} matches no signal of the run")
-    outputs: list[tuple[str, str | bytes]] = []
-    if args.json:
-        outputs.append((args.json, report.to_json()))
-    if args.junit:
-        outputs.append((args.junit, report.to_junit()))
-    if args.plot:
-        from .run.plot import plot_bytes, plot_format
-
-        outputs.append((args.plot, plot_bytes(report, case, plot_format(args.plot), args.signals)))
+    outputs = report_outputs(report, args.json, args.junit, args.plot,
+                             lambda: plot_bytes(report, case, plot_format(args.plot), args.signals))  # fmt: skip
     if args.signals_out:
-        from .run.export import export_format, table_bytes
-
         outputs.append((args.signals_out, table_bytes(report, case, export_format(args.signals_out), args.signals)))
     outputs += _replay_outputs(args, report, case, registry, logged)
     shown = {args.json: "json", args.junit: "btcpp"}  # '-': printed like any view, escaped for a terminal
@@ -579,7 +545,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                for t, d in outputs]  # fmt: skip
     commit(outputs)  # all together, after everything was made: a failure leaves none
     _print(report.table(), sys.stderr if on_stdout(t for t, _ in outputs) else None)  # stdout: the document only
-    return EXIT_OK if report.passed else EXIT_FAIL
+    return ExitCode.OK if report.passed else ExitCode.FAIL
 
 
 def cmd_expand(args: argparse.Namespace) -> int:
@@ -590,7 +556,7 @@ def cmd_schema(args: argparse.Namespace) -> int:
     import json
 
     _print(json.dumps(schema_for(_registry(args)), indent=2, ensure_ascii=False) + "\n")
-    return EXIT_OK
+    return ExitCode.OK
 
 
 def _non_negative(text: str) -> int:
@@ -637,7 +603,7 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         _err(f"btgen_pytrees: error: {message} (see --help)")
-        raise SystemExit(EXIT_INVALID)
+        raise SystemExit(ExitCode.INVALID)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -753,7 +719,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     if getattr(sys.stdout, "btgen_closed", False):
         _err("btgen_pytrees: standard output is closed; redirect it (to a file or /dev/null) instead")
-        return EXIT_INVALID
+        return ExitCode.INVALID
     args_list = list(sys.argv[1:] if argv is None else argv)
     if args_list and args_list[0] not in COMMANDS and not args_list[0].startswith("-"):
         word = args_list[0]
@@ -761,16 +727,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             hint = get_close_matches(word, COMMANDS, n=1)
             _err(f"btgen_pytrees: unknown command {word!r}" + (f" (did you mean {hint[0]!r}?)" if hint else
                  f"; the commands are {', '.join(COMMANDS)}, or give a test case FILE to show it"))  # fmt: skip
-            return EXIT_INVALID
+            return ExitCode.INVALID
         args_list.insert(0, "show")
     parser = _parser()
     try:
         args = parser.parse_args(args_list)
     except SystemExit as done:  # --help, --version (0) or a usage error (2, already printed)
-        return done.code if isinstance(done.code, int) else EXIT_INVALID
+        return done.code if isinstance(done.code, int) else ExitCode.INVALID
     if args.command is None:
         parser.print_help(sys.stderr)
-        return EXIT_INVALID
+        return ExitCode.INVALID
     if argv is None:  # the real CLI process
         divert_stdout()  # stdout carries only what btgen_pytrees prints; user code's prints go to stderr
         if loads_user_code(getattr(args, "plugin", None) or ()):  # no verdict, no exit 0 (btgen_pytrees.supervise)
@@ -794,34 +760,81 @@ def _command(args: argparse.Namespace, *, real: bool) -> int:
         if hasattr(args, "jobs"):
             _check_jobs(args)
         return func(args)
-    except (UsageError, Refused) as problem:
-        _err(f"btgen_pytrees: {problem}")
-        return EXIT_INVALID
-    except ParameterError as problem:
-        for line in problem.lines:
-            _err(f"btgen_pytrees: {line}")
-        return EXIT_INVALID
     except InvalidTestCase as error:
         return _report_invalid(error)
-    except (PluginError, FactoryError) as error:
-        _err(f"btgen_pytrees: {error}")
-        return EXIT_INVALID
+    except UserError as problem:  # the one family of input errors: a usage error, a plugin, a factory, ...
+        for line in problem.messages():
+            _err(f"btgen_pytrees: {line}")
+        return ExitCode.INVALID
     except Interrupt as stop:
         _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}")
         return 128 + stop.signum
-    except batch.Interrupted as stop:
+    except Interrupted as stop:
         _err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}")
         return 128 + stop.signum
     except BrokenPipeError:
-        return EXIT_OK
+        return ExitCode.OK
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
         _err(f"btgen_pytrees: internal error: {type(exc).__name__}: {exc}")
-        return EXIT_INTERNAL
+        return ExitCode.INTERNAL
     except BaseException as exc:  # noqa: BLE001 - SystemExit/KeyboardInterrupt raised by user code
         if isinstance(exc, KeyboardInterrupt) and not real:
             raise  # a test's own Ctrl-C
         _err(f"btgen_pytrees: error: user code (a plugin or leaf) raised {type(exc).__name__}" + (f": {exc}" if str(exc) else ""))
-        return EXIT_FAIL
+        return ExitCode.FAIL
     finally:
         for signum, handler in handlers.items():
             signal.signal(signum, handler)
+
+
+def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequence[str | None],
+                    plot: str | None, system: Any = None) -> tuple[Any, Callable[..., Outcome], Callable[[int], tuple[object, ...]]]:  # fmt: skip
+    """``run FILE... --executor dask``: the cluster, the job and its arguments for the CLI's batch.
+
+    Each file is read here (with the loader's limits) and its bytes travel with
+    its task, so workers need no copy of the files; the files the cases name
+    (SUMO configurations and their networks and routes) and the ``--plugin``
+    files are sent to every worker once. The outputs come back as data and the
+    CLI writes them here, never on a worker.
+    """
+    executor = make_executor(args)
+    shipped: list[tuple[bytes | None, list[Problem], SystemSpec | None]] = []
+    for path in files:
+        try:
+            raw: bytes | None = _read(path)
+            problems: list[Problem] = []
+        except InvalidTestCase as error:
+            raw, problems = None, list(error.problems)
+        shipped.append((raw, problems, _system_of(raw, path, system)))
+    options = ship(executor, run_options(args), [s for _, _, s in shipped], default_registry(()))
+
+    def job_args(i: int) -> tuple[object, ...]:
+        raw, problems, spec = shipped[i]
+        return (options, raw, problems, targets[i], plot, bool(args.junit), spec)
+
+    return executor, batch.job_run_shipped, job_args
+
+
+def _system_of(raw: bytes | None, path: str, system: SystemSpec | None) -> SystemSpec | None:
+    """The system of the file *path* holding *raw*, resolved here (None if it cannot be read: the worker says why)."""
+    if system is not None or raw is None:
+        return system
+    try:
+        document = parse_json(raw, path)
+    except InvalidTestCase:
+        return None
+    return resolved_system(document, path, None)
+
+
+def _read(path: str) -> bytes:
+    """The file's bytes, with the loader's checks (size limit, no FIFOs) - read once, here."""
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO would block the open
+            raise InvalidTestCase([Problem((), "not a regular file", "json")], path)
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise InvalidTestCase([Problem((), f"cannot read file: {exc.strerror or exc}", "json")], path) from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise InvalidTestCase([Problem((), f"file is larger than {MAX_FILE_BYTES} bytes", "limit")], path)
+    return raw

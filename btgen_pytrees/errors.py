@@ -22,7 +22,7 @@ from typing import Any, Iterable, Union
 
 from .text import MAX_MESSAGE, shorten
 
-__all__ = ["Problem", "by_place", "InvalidTestCase", "ExitCode", "Interrupt", "is_interrupt", "pointer", "plural", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
+__all__ = ["Problem", "by_place", "UserError", "UsageError", "InvalidTestCase", "ExitCode", "Interrupt", "is_interrupt", "pointer", "plural", "printable", "shorten", "xml_safe", "MAX_PROBLEMS", "MAX_MESSAGE", "MAX_LINE"]
 
 PathPart = Union[str, int]
 
@@ -147,7 +147,29 @@ def by_place(problem: Problem) -> tuple[Any, ...]:
     return tuple((0, p, "") if isinstance(p, int) else (1, 0, p) for p in problem.path), problem.message
 
 
-class InvalidTestCase(ValueError):
+class UserError(Exception):
+    """What the user gave cannot be used: exit code 2 (:attr:`ExitCode.INVALID`), nothing run.
+
+    The one family the command line and the worker pool both classify by: the CLI prints
+    ``btgen_pytrees: `` before each of :meth:`messages` on stderr; a batch's worker makes it the
+    file's outcome (:func:`btgen_pytrees.parallel.guard`). Its members are errors of input, not of
+    btgen_pytrees: :class:`InvalidTestCase`, :class:`UsageError`, an unusable plugin or leaf factory
+    (``PluginError``, ``FactoryError``), a missing tool (``GraphvizMissing``), given parameters that
+    cannot be used (``ParameterError``), an unusable output path (``OutputError``) or cluster
+    (``DaskUnavailable``, ``ShippingError``).
+    """
+
+    def messages(self) -> list[str]:
+        """What the CLI prints, a ``btgen_pytrees: `` line each (default: ``str(self)``)."""
+        return [str(self)]
+
+
+class UsageError(UserError):
+    """A command line that cannot work (options that do not go together, a value out of range);
+    ``str()`` is one line for the user."""
+
+
+class InvalidTestCase(UserError, ValueError):
     """A test case that cannot be turned into a tree.
 
     Attributes:

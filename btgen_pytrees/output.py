@@ -25,12 +25,12 @@ import os
 import stat
 import sys
 from contextlib import contextmanager
-from typing import Iterable, Iterator, Sequence, TextIO, Union
+from typing import Any, Callable, Iterable, Iterator, Sequence, TextIO, Union
 
-from .errors import printable
+from .errors import UserError, printable
 
 __all__ = ["OutputError", "check_target", "check_distinct", "commit", "write_file", "same_file", "is_direct",
-           "emit", "on_stdout", "divert_stdout", "own_stdout", "stdout_isatty"]  # fmt: skip
+           "emit", "on_stdout", "divert_stdout", "own_stdout", "stdout_isatty", "report_outputs"]  # fmt: skip
 
 _stdout_fd: int | None = None
 """The real standard output while :func:`divert_stdout` is in force (None: not diverted)."""
@@ -97,7 +97,7 @@ def emit(text: str, stream: TextIO | None = None) -> None:
         target.write(safe)
 
 
-class OutputError(ValueError):
+class OutputError(UserError, ValueError):
     """An output path that cannot be used; ``str()`` is one line for the user (exit 2)."""
 
 
@@ -219,6 +219,21 @@ def _write_stdout(data: Data) -> None:
     for chunk in _chunks(data):
         sys.stdout.buffer.write(chunk)
         sys.stdout.buffer.flush()
+
+
+def report_outputs(report: Any, json: str | None = None, junit: str | None = None, plot: str | None = None,
+                   draw: Callable[[], bytes | str] | None = None) -> list[tuple[str, str | bytes]]:
+    """The ``--json``, ``--junit`` and ``--plot`` outputs of *report* (anything with ``to_json()`` and
+    ``to_junit()``: a run's report, a sweep's) as ``(target, data)`` pairs for :func:`commit`, in that order;
+    a target that is None is not made. *draw* makes the picture written to *plot*."""
+    outputs: list[tuple[str, str | bytes]] = []
+    if json:
+        outputs.append((json, report.to_json()))
+    if junit:
+        outputs.append((junit, report.to_junit()))
+    if plot and draw is not None:
+        outputs.append((plot, draw()))
+    return outputs
 
 
 def commit(outputs: Iterable[tuple[str, Data]]) -> list[str]:

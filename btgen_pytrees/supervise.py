@@ -24,10 +24,9 @@ import signal
 import sys
 from typing import Any, Callable, NoReturn
 
-__all__ = ["supervised", "EXIT_NO_VERDICT"]
+from .errors import ExitCode
 
-EXIT_NO_VERDICT = 1
-"""Exit code when the command's process ended without handing over its code (a verdict ``error``)."""
+__all__ = ["supervised"]
 
 
 def _death(status: int) -> str:
@@ -73,7 +72,7 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
 
     Only a code the child hands over counts: if the child ends without one
     (``os._exit``, a crash, killed), *on_error* gets one line saying so and the
-    result is :data:`EXIT_NO_VERDICT` (``128 + signum`` when SIGINT or SIGTERM
+    result is ``ExitCode.FAIL``, as for a verdict ``error`` (``128 + signum`` when SIGINT or SIGTERM
     killed it, with the line the command itself prints then). In the child this
     function does not return: once the code is handed over, the child's ``atexit``
     handlers run, its buffers are written and it exits with that code.
@@ -87,8 +86,8 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
         os.close(read_end)
         _die_with_parent()
         if os.getppid() != parent:  # the parent died before prctl took effect
-            os._exit(EXIT_NO_VERDICT)
-        code = EXIT_NO_VERDICT
+            os._exit(ExitCode.FAIL)
+        code: int = ExitCode.FAIL
         try:
             code = work()
         finally:
@@ -124,4 +123,4 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
         return 128 + os.WTERMSIG(status)
     on_error(f"btgen_pytrees: error: the command's process {_death(status)} before giving a verdict (user code - "
              "a plugin, a leaf or a system - ended it, e.g. with os._exit); nothing it did counts")  # fmt: skip
-    return EXIT_NO_VERDICT
+    return ExitCode.FAIL

@@ -40,6 +40,7 @@ LAYERS: dict[str, int] = {
     # L1: contracts and algorithms that know no leaf, system or view
     "btgen_pytrees.timeline": 1,
     "btgen_pytrees.contracts": 1,
+    "btgen_pytrees.parallel": 1,
     # L2: systems under test; L3: built-in behaviours (the SUMO actions among them) and their registration
     "btgen_pytrees.systems": 2,
     "btgen_pytrees.leaves": 3,
@@ -224,27 +225,15 @@ KNOWN_CYCLES: set[frozenset[str]] = {
     }),
 }
 KNOWN_FUNCTION_LEVEL: set[tuple[str, str]] = {
-    ('btgen_pytrees.batch', 'btgen_pytrees.run'),
-    ('btgen_pytrees.batch', 'btgen_pytrees.run.plot'),
-    ('btgen_pytrees.cli', 'btgen_pytrees.run'),
-    ('btgen_pytrees.cli', 'btgen_pytrees.run.btlog'),
-    ('btgen_pytrees.cli', 'btgen_pytrees.run.export'),
-    ('btgen_pytrees.cli', 'btgen_pytrees.run.plot'),
-    ('btgen_pytrees.cli', 'btgen_pytrees.run.replay'),
     ('btgen_pytrees.loader', 'btgen_pytrees.onepass'),
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep.case'),
     ('btgen_pytrees.sweep.case', 'btgen_pytrees.loader'),
     ('btgen_pytrees.sweep.check', 'btgen_pytrees.loader'),
-    ('btgen_pytrees.sweep.command', 'btgen_pytrees.run.plot'),
-    ('btgen_pytrees.sweep.command', 'btgen_pytrees.sweep.plot'),
-    ('btgen_pytrees.sweep.jobs', 'btgen_pytrees.run'),
 }
 KNOWN_PRIVATE: set[tuple[str, str, str]] = set()
 KNOWN_UPWARD: set[tuple[str, str]] = {
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep'),
     ('btgen_pytrees.loader', 'btgen_pytrees.sweep.case'),
-    ('btgen_pytrees.sweep.command', 'btgen_pytrees.batch'),
-    ('btgen_pytrees.sweep.jobs', 'btgen_pytrees.batch'),
 }
 
 

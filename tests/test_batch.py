@@ -80,9 +80,10 @@ def test_single_file_options_are_refused_in_batch(suite: pathlib.Path) -> None:
 
 def test_in_process_and_pool_agree(suite: pathlib.Path) -> None:
     from btgen_pytrees import batch
+    from btgen_pytrees.parallel import process
 
     files = batch.expand([str(suite)])
     args = [((), None)] * len(files)
-    one = batch.process(batch.job_run, args, files, workers=1)
-    two = batch.process(batch.job_run, args, files, workers=2)
+    one = process(batch.job_run, args, files, workers=1)
+    two = process(batch.job_run, args, files, workers=2)
     assert [(o.path, o.code, o.summary) for o in one] == [(o.path, o.code, o.summary) for o in two]

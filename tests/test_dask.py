@@ -114,9 +114,9 @@ def test_a_batch_of_files_runs_on_the_cluster_and_outputs_are_written_here(clust
 
 
 def test_a_worker_killed_mid_sweep_loses_nothing_and_counts_nothing_twice(cluster: Any, client: Any) -> None:
-    from btgen_pytrees import batch
+    from btgen_pytrees import parallel
     from btgen_pytrees.sweep import load_sweep
-    from btgen_pytrees.sweep.executors import DaskExecutor
+    from btgen_pytrees.parallel.dask import DaskExecutor
     from btgen_pytrees.sweep.jobs import RunOptions, VariationOutcome, job_variation
 
     sweep = load_sweep(slow_sweep(60))
@@ -124,7 +124,7 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_counts_nothing_twice(cluste
     seen: list[str] = []
     killed: list[int] = []
 
-    def on_result(outcome: batch.Outcome) -> None:
+    def on_result(outcome: parallel.Outcome) -> None:
         seen.append(outcome.path)
         if killed:
             return
@@ -136,7 +136,7 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_counts_nothing_twice(cluste
             killed.append(pid)
 
     with DaskExecutor(cluster.scheduler_address, chunk=3) as executor:
-        outcomes = batch.process(job_variation, [(RunOptions(), sweep.source, v.document) for v in variations],
+        outcomes = parallel.process(job_variation, [(RunOptions(), sweep.source, v.document) for v in variations],
                                  [v.label for v in variations], executor=executor, on_result=on_result)  # fmt: skip
     assert killed, "no worker was busy to kill"
     assert sorted(seen) == sorted(v.label for v in variations)  # every result once
@@ -150,7 +150,7 @@ def test_stopping_early_cancels_what_was_submitted(cluster: Any, client: Any) ->
     from functools import partial
 
     from btgen_pytrees.sweep import load_sweep
-    from btgen_pytrees.sweep.executors import DaskExecutor
+    from btgen_pytrees.parallel.dask import DaskExecutor
     from btgen_pytrees.sweep.jobs import RunOptions, job_variation
 
     sweep = load_sweep(slow_sweep(40))
@@ -188,7 +188,7 @@ def test_ctrl_c_stops_a_sweep_on_the_cluster(cluster: Any, client: Any, tmp_path
 
 
 def test_an_unreachable_scheduler_is_a_usage_error_before_anything_runs(tmp_path: pathlib.Path) -> None:
-    from btgen_pytrees.sweep.executors import DaskExecutor, DaskUnavailable
+    from btgen_pytrees.parallel.dask import DaskExecutor, DaskUnavailable
 
     with pytest.raises(DaskUnavailable, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"):
         DaskExecutor("tcp://127.0.0.1:9", timeout=1).connect()

@@ -7,7 +7,7 @@ import pathlib
 import re
 import tomllib
 
-from btgen_pytrees import cli
+from btgen_pytrees.errors import ExitCode
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 README = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -19,8 +19,8 @@ def flat(text: str) -> str:
 
 def test_exit_code_line_lists_every_code() -> None:
     line = flat(README[README.index("Exit codes:"):][:400])
-    for code, meaning in ((cli.EXIT_OK, "pass"), (cli.EXIT_FAIL, "fail, timeout or error"), (cli.EXIT_INVALID, "invalid"),
-                          (cli.EXIT_INTERNAL, "internal error"), (130, "Ctrl-C"), (143, "SIGTERM")):  # fmt: skip
+    for code, meaning in ((ExitCode.OK, "pass"), (ExitCode.FAIL, "fail, timeout or error"), (ExitCode.INVALID, "invalid"),
+                          (ExitCode.INTERNAL, "internal error"), (130, "Ctrl-C"), (143, "SIGTERM")):  # fmt: skip
         assert str(code) in line and meaning in line, (code, line)
 
 

@@ -24,7 +24,7 @@ from typing import Any, Callable, Mapping, Union
 
 import py_trees
 
-from ..errors import is_interrupt
+from ..errors import UserError, is_interrupt
 from ..model import Criterion, Entry
 from ..validation import SchemaValidator, shared_validator
 from .environment import Environment
@@ -61,7 +61,7 @@ def _checked_update(node: py_trees.behaviour.Behaviour) -> Callable[[], py_trees
     return checked
 
 
-class FactoryError(TypeError):
+class FactoryError(UserError, TypeError):
     """A leaf factory raised (anything, ``SystemExit`` included) or returned something that is not a Behaviour.
 
     The CLI reports it as one line (exit 2; ``run``: the verdict ``error``).

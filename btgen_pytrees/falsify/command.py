@@ -17,18 +17,18 @@ import signal
 import sys
 from typing import Any, Mapping
 
-from .. import batch
 from ..construct import generate
 from ..loader import validate
 from ..render import GraphvizMissing
 from ..run import run
 from ..run.plot import plot_format
 from ..run.replay import replay_html
-from ..errors import ExitCode, InvalidTestCase, Problem
+from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
 from ..leaves import Registry, default_registry
 from ..output import OutputError, check_target, commit, emit
 from ..sweep.case import Sweep, Variation, load_sweep
-from ..sweep.command import Refused, file_name, make_executor, run_options, run_variations
+from ..parallel import Interrupted, progress_stream
+from ..sweep.command import file_name, make_executor, run_options, run_variations
 from ..sweep.jobs import VariationOutcome
 from ..sweep.variations import format_value, label
 from .jobs import job_probe
@@ -67,7 +67,7 @@ def settings_of(block: Mapping[str, Any] | None, args: argparse.Namespace, crite
 
     Raises:
         InvalidTestCase: a ``scale`` names no criterion.
-        Refused: an option out of range.
+        UsageError: an option out of range.
     """
     block = dict(block or {})
     problems = [_bad(("scale", k), f"{k!r} is not a criterion of the oracle (criteria: {', '.join(sorted(criteria)) or 'none'})")
@@ -77,7 +77,7 @@ def settings_of(block: Mapping[str, Any] | None, args: argparse.Namespace, crite
     for option, low in (("budget", 1), ("batch", 1), ("seed", 0)):
         value = getattr(args, option, None)
         if value is not None and value < low:
-            raise Refused(f"--{option} {value}: must be at least {low}")
+            raise UsageError(f"--{option} {value}: must be at least {low}")
     pick = {k: (getattr(args, k, None) if getattr(args, k, None) is not None else block.get(k))
             for k in ("budget", "method", "seed", "batch", "stop", "start")}  # fmt: skip
     given = {k: v for k, v in pick.items() if v is not None}
@@ -117,7 +117,7 @@ def _progress_line(stream: Any) -> Any:
 def cmd_falsify(args: argparse.Namespace) -> int:
     """Run the search; see the module notes for exit codes."""
     if not available():
-        raise Refused(HINT)
+        raise UsageError(HINT)
     sweep = _load(args)
     criteria = {c.get("id") for c in (sweep.template.get("oracle") or {}).get("criteria", []) if isinstance(c, dict)}
     settings = settings_of(sweep.search, args, {c for c in criteria if isinstance(c, str)}, sweep.source)
@@ -126,15 +126,15 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         try:
             plot_format(args.plot)
         except ValueError as problem:
-            raise Refused(str(problem)) from None
+            raise UsageError(str(problem)) from None
         if importlib.util.find_spec("matplotlib") is None:
-            raise Refused("--plot needs matplotlib: pip install -e '.[plot]'")
+            raise UsageError("--plot needs matplotlib: pip install -e '.[plot]'")
     space = Space.of(sweep.variations)
     registry = default_registry(args.plugin or ())
     groups = groups_of(validate(concrete_case(sweep, {}), sweep.source, registry))
     executor = make_executor(args)
     options = run_options(args)
-    stream = batch.progress_stream()
+    stream = progress_stream()
     counter = [0]
 
     def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -160,7 +160,7 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     try:
         try:
             search.run()
-        except batch.Interrupted as stop:
+        except Interrupted as stop:
             search.interrupted, signum = True, stop.signum
     finally:
         if executor is not None:
@@ -194,10 +194,10 @@ def _check_outputs(args: argparse.Namespace) -> None:
             if path:
                 check_target(path, option, [args.file])
     except OutputError as problem:
-        raise Refused(str(problem)) from None
+        raise UsageError(str(problem)) from None
     out = args.out_dir
     if out and os.path.exists(out) and not os.path.isdir(out):
-        raise Refused(f"--out-dir {out}: exists and is not a directory")
+        raise UsageError(f"--out-dir {out}: exists and is not a directory")
 
 
 def _cases(sweep: Sweep, data: Mapping[str, Any], out_dir: str, registry: Registry) -> list[tuple[str, str | bytes]]:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from typing import Any, Mapping, Sequence
 
-from ..batch import Outcome
+from ..parallel import Outcome
 from ..errors import InvalidTestCase, is_interrupt
 from ..sweep.jobs import ChunkOutcome, RunOptions, job_variation
 

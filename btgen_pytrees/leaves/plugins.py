@@ -33,7 +33,7 @@ from types import ModuleType
 from typing import Callable, Iterable, Iterator
 
 from ..contracts.registry import Registry
-from ..errors import is_interrupt
+from ..errors import UserError, is_interrupt
 
 __all__ = ["ENTRY_POINT_GROUP", "PluginError", "installed_plugins", "load_module_plugin", "loads_user_code"]
 
@@ -41,7 +41,7 @@ ENTRY_POINT_GROUP = "btgen_pytrees.leaves"
 Register = Callable[[Registry], object]
 
 
-class PluginError(RuntimeError):
+class PluginError(UserError, RuntimeError):
     """A plugin could not be imported or did not register cleanly."""
 
 

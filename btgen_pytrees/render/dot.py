@@ -43,7 +43,7 @@ import pydot
 from py_trees.composites import Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
-from ..errors import printable, xml_safe
+from ..errors import UserError, printable, xml_safe
 from ..leaves.wiring import Trigger
 from .info import annotation, depth_for, is_selected, role, type_name, walk
 
@@ -94,7 +94,7 @@ LEGEND = (
 )
 
 
-class GraphvizMissing(RuntimeError):
+class GraphvizMissing(UserError, RuntimeError):
     """Graphviz's ``dot`` program is not on ``PATH``; ``str()`` is a one-line hint."""
 
     def __init__(self, fmt: str, option: str | None = None):

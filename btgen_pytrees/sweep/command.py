@@ -14,26 +14,26 @@ import json
 import os
 import re
 import signal
-import stat
 import sys
 from typing import Any, Callable, Mapping, Sequence
 
-from .. import batch
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
-from ..errors import ExitCode, InvalidTestCase, Problem, plural
-from ..loader import MAX_FILE_BYTES, load_json, parse_json, system_spec
-from ..output import OutputError, check_target, commit, emit, on_stdout
+from ..errors import ExitCode, UsageError, plural
+from ..loader import system_spec
+from ..output import check_target, commit, emit, on_stdout, report_outputs
+from ..parallel import Interrupted, Outcome, process, progress_stream
+from ..parallel.dask import DaskExecutor, check_address, scheduler_address
+from ..parallel.shipping import Files, read_files
 from ..contracts.system import SystemSpec
-from .case import MAX_VARIATIONS, Sweep, Variation, has_variations, load_sweep
-from .executors import DaskExecutor, DaskUnavailable, check_address, scheduler_address
-from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk, job_run_shipped
+from ..run.plot import plot_format
+from .case import MAX_VARIATIONS, Sweep, Variation, load_sweep
+from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk
+from .plot import map_bytes
 from .report import SweepReport
-from .shipping import Files, ShippingError, read_files
 
-__all__ = ["run_sweep", "run_variations", "job_run_variations", "dask_batch_args", "cmd_expand", "file_name", "make_executor", "sweep_report", "Refused"]
+__all__ = ["run_sweep", "run_variations", "resolved_system", "cmd_expand", "file_name", "make_executor", "sweep_report"]
 
-EXIT_OK, EXIT_FAIL, EXIT_INVALID = ExitCode.OK, ExitCode.FAIL, ExitCode.INVALID
 _UNSAFE = re.compile(r"[^A-Za-z0-9._=,+\-\[\]]")
 _MAX_NAME = 200
 
@@ -56,7 +56,7 @@ def _load(args: argparse.Namespace, data: Mapping[str, Any] | None = None, syste
     source = args.file
     limit = args.max_variations if args.max_variations is not None else MAX_VARIATIONS
     if limit < 1:
-        raise Refused(f"--max-variations {limit}: must be at least 1")
+        raise UsageError(f"--max-variations {limit}: must be at least 1")
     registry = default_registry(args.plugin or ())
     return load_sweep(data if data is not None else source, registry=registry, max_variations=limit, source_name=source, system=system,
                       max_work=getattr(args, "max_work", None))  # fmt: skip
@@ -72,7 +72,7 @@ def cmd_expand(args: argparse.Namespace, data: Mapping[str, Any] | None = None) 
     """
     out = args.out_dir
     if os.path.lexists(out) and not os.path.isdir(out):
-        raise Refused(f"--out-dir {out}: exists and is not a directory")
+        raise UsageError(f"--out-dir {out}: exists and is not a directory")
     sweep = _load(args, data)
     planned: list[tuple[str, str]] = []
     taken: dict[str, str] = {}
@@ -83,21 +83,18 @@ def cmd_expand(args: argparse.Namespace, data: Mapping[str, Any] | None = None) 
             doc["description"] = f"{doc['description']} ({where})" if doc.get("description") else where.capitalize()
         name = file_name(sweep.name, variation.label, variation.index)
         if name.casefold() in taken:  # a case-insensitive disk would merge them
-            raise Refused(f"--out-dir {out}: variations [{taken[name.casefold()]}] and [{variation.label}] would both be written to {name}")
+            raise UsageError(f"--out-dir {out}: variations [{taken[name.casefold()]}] and [{variation.label}] would both be written to {name}")
         taken[name.casefold()] = variation.label
         path = os.path.join(out, name)
-        try:
-            check_target(path, "--out-dir", [args.file], made_later=True)
-        except OutputError as problem:
-            raise Refused(str(problem)) from None
+        check_target(path, "--out-dir", [args.file], made_later=True)
         planned.append((path, json.dumps(doc, indent=2, ensure_ascii=False) + "\n"))
     try:
         os.makedirs(out, exist_ok=True)
     except OSError as exc:
-        raise Refused(f"--out-dir {out}: cannot be created: {exc.strerror or exc}") from None
+        raise UsageError(f"--out-dir {out}: cannot be created: {exc.strerror or exc}") from None
     commit(planned)
     emit(f"{len(planned)} case{'s' if len(planned) != 1 else ''} written to {out}\n")
-    return EXIT_OK
+    return ExitCode.OK
 
 
 def _moved(document: dict[str, Any], source: str, out_dir: str) -> dict[str, Any]:
@@ -113,16 +110,13 @@ def _moved(document: dict[str, Any], source: str, out_dir: str) -> dict[str, Any
     return {**document, "system": {**document["system"], "config": config}}
 
 
-class Refused(Exception):
-    """A usage problem found before anything ran (exit 2); ``str()`` is the message."""
-
-
 def make_executor(args: argparse.Namespace) -> Any:
     """None for the local pool; a connected :class:`DaskExecutor` for ``--executor dask``.
 
     Raises:
-        Refused: no scheduler address, a malformed or unsupported one, the extra is missing,
-            or the scheduler cannot be reached.
+        UsageError: no scheduler address.
+        DaskUnavailable: a malformed or unsupported address, the extra is missing, or the scheduler
+            cannot be reached.
     """
     address = checked_scheduler(args)
     if address is None:
@@ -132,8 +126,6 @@ def make_executor(args: argparse.Namespace) -> Any:
     try:
         executor = DaskExecutor(address)
         executor.connect()
-    except DaskUnavailable as problem:
-        raise Refused(str(problem)) from None
     finally:  # the command says itself what went wrong with the cluster, in one line; distributed's own
         # log records (tracebacks of its reconnection attempts) would bury it. Its loggers exist once it is imported.
         for name in [n for n in logging.root.manager.loggerDict if n == "distributed" or n.startswith("distributed.")]:
@@ -145,17 +137,15 @@ def checked_scheduler(args: argparse.Namespace) -> str | None:
     """The scheduler address of ``--executor dask``, checked without connecting (None for the local pool).
 
     Raises:
-        Refused: no address, or a malformed or unsupported one.
+        UsageError: no address.
+        DaskUnavailable: a malformed or unsupported address.
     """
     if getattr(args, "executor", None) != "dask":
         return None
     address = scheduler_address(args.scheduler)
     if address is None:
-        raise Refused("--executor dask needs --scheduler tcp://HOST:PORT (or DASK_SCHEDULER_ADDRESS)")
-    try:
-        return check_address(address)
-    except DaskUnavailable as problem:
-        raise Refused(str(problem)) from None
+        raise UsageError("--executor dask needs --scheduler tcp://HOST:PORT (or DASK_SCHEDULER_ADDRESS)")
+    return check_address(address)
 
 
 def run_options(args: argparse.Namespace) -> RunOptions:
@@ -193,17 +183,14 @@ def ship(executor: Any, options: RunOptions, systems: Sequence[SystemSpec | None
     """On a cluster: send the files the runs read to the workers (once each); the options naming them."""
     if executor is None:
         return options
-    try:
-        files: Files = read_files(needed_files(options, systems, registry))
-    except ShippingError as problem:
-        raise Refused(str(problem)) from None
+    files: Files = read_files(needed_files(options, systems, registry))  # ShippingError: a usage error
     if not files.items:
         return options
     executor.ship(files)
     return RunOptions(options.plugins, options.max_work, options.require_complete, files.digest)
 
 
-def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequence[batch.Outcome]) -> SweepReport:
+def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequence[Outcome]) -> SweepReport:
     """The report from the runs' outcomes (both in the sweep's order)."""
     report = SweepReport(sweep.name, sweep.source, dict(sweep.defaults), sweep.varied)
     for variation, outcome in zip(variations, outcomes):
@@ -219,7 +206,7 @@ def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequen
 
 def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOptions, system: SystemSpec | None,
                    workers: int, executor: Any = None, progress: Any = None,
-                   job: Callable[..., ChunkOutcome] = job_chunk) -> list[batch.Outcome]:  # fmt: skip
+                   job: Callable[..., ChunkOutcome] = job_chunk) -> list[Outcome]:  # fmt: skip
     """Run *variations*; one outcome per variation, in order.
 
     *job* runs a chunk (default :func:`~.jobs.job_chunk`; ``falsify`` passes its own, which
@@ -230,10 +217,10 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     the workers first (:func:`ship`). On the local pool, variations go to the workers in chunks
     (:func:`~.jobs.chunk_size`: about 8 per worker, at most 32 runs each), so the cost of
     handing a task to a process is paid once per chunk; a worker that dies costs its chunk
-    (each of its variations gets the error). A :class:`~.executors.DaskExecutor` chunks by itself.
+    (each of its variations gets the error). A :class:`~btgen_pytrees.parallel.dask.DaskExecutor` chunks by itself.
 
     Raises:
-        batch.Interrupted: Ctrl-C; its ``finished`` tells how many variations had run.
+        Interrupted: Ctrl-C; its ``finished`` tells how many variations had run.
     """
     systems = [resolved_system(v.document, sweep.source, system) for v in variations]
     options = ship(executor, options, systems, default_registry(options.plugins) if executor is not None else Registry())
@@ -244,9 +231,9 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     job_args = [(options, sweep.source, [(v.label, v.document, s) for v, s in zip(c, systems[k:k + size])])
                 for k, c in zip(starts, chunks)]  # fmt: skip
     try:
-        done = batch.process(job, job_args, names, workers=workers, progress=progress, executor=executor)
-    except batch.Interrupted as stop:
-        stop.finished = sum(len(c) for c, o in zip(chunks, stop.outcomes) if o.code != batch.NOT_RUN)  # type: ignore[attr-defined]
+        done = process(job, job_args, names, workers=workers, progress=progress, executor=executor)
+    except Interrupted as stop:
+        stop.finished = sum(len(c) for c, o in zip(chunks, stop.outcomes) if o.code != ExitCode.INTERRUPTED)  # type: ignore[attr-defined]
         raise
     return [part for c, o in zip(chunks, done)
             for part in (o.parts if isinstance(o, ChunkOutcome) else [o] * len(c))]  # a lost chunk: each its error
@@ -264,15 +251,15 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
     """
     for option in ("trace", "replay"):
         if getattr(args, option, None):
-            raise Refused(f"--{option} shows a single run; a sweep has many (run one variation from 'expand')")
+            raise UsageError(f"--{option} shows a single run; a sweep has many (run one variation from 'expand')")
     checked_scheduler(args)  # a malformed address is refused before the variations are validated
     sweep = _load(args, data, system)
     executor = make_executor(args)
     variations = list(sweep)
     try:
         outcomes = run_variations(sweep, variations, run_options(args), system, args.jobs, executor,
-                                  batch.progress_stream())  # fmt: skip
-    except batch.Interrupted as stop:
+                                  progress_stream())  # fmt: skip
+    except Interrupted as stop:
         emit(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {stop.finished} of "
              f"{plural(len(variations), 'variation')}; nothing written\n", sys.stderr)  # fmt: skip
         return 128 + stop.signum
@@ -280,16 +267,7 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
         if executor is not None:
             executor.close()
     report = sweep_report(sweep, variations, outcomes)
-    outputs: list[tuple[str, str | bytes]] = []
-    if args.json:
-        outputs.append((args.json, report.to_json()))
-    if args.junit:
-        outputs.append((args.junit, report.to_junit()))
-    if args.plot:
-        from ..run.plot import plot_format
-        from .plot import map_bytes
-
-        outputs.append((args.plot, map_bytes(report, plot_format(args.plot))))
+    outputs = report_outputs(report, args.json, args.junit, args.plot, lambda: map_bytes(report, plot_format(args.plot)))
     for path, kind in extra:
         outputs.append((path, report.to_json() if kind == "json" else report.to_junit()))
     if out_dir is not None:
@@ -300,95 +278,4 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
         emit(f"btgen_pytrees: {executor.lost}; the rest are reported as errors\n", sys.stderr)
     if any(o.code == ExitCode.INTERNAL for o in outcomes):
         return ExitCode.INTERNAL
-    return EXIT_OK if report.passed else EXIT_FAIL
-
-
-def job_run_variations(path: str, plugins: Sequence[str], target: str | None, plot: str | None = None,
-                       junit: bool = False, system: Any = None, max_work: int | None = None,
-                       require_complete: bool = False, max_variations: int | None = None) -> batch.Outcome:  # fmt: skip
-    """``run FILE... --variations``: a sweep runs every variation here, one after the other; any other file
-    as :func:`btgen_pytrees.batch.job_run`.
-
-    A sweep's outputs are its sweep report (``<target>.report.json``), its JUnit
-    (a testcase per variation) and, with *plot*, its verdict map; its row counts
-    the verdicts. The variations run in this worker process, one at a time (a
-    worker starts no workers of its own); each is guarded on its own.
-    """
-    data = load_json(path)
-    if not has_variations(data):
-        return batch.job_run(path, plugins, target, plot, junit, system, max_work, require_complete)
-    registry = default_registry(plugins)
-    limit = max_variations if max_variations is not None else MAX_VARIATIONS
-    sweep = load_sweep(data, registry=registry, max_variations=limit, source_name=path, system=system, max_work=max_work)
-    variations = list(sweep)
-    options = RunOptions(tuple(plugins), max_work, require_complete)  # every run option, as for the sweep run alone
-    items = [(v.label, v.document, resolved_system(v.document, path, system)) for v in variations]
-    done = job_chunk(path, options, path, items)
-    report = sweep_report(sweep, variations, done.parts)
-    outputs: list[tuple[str, str | bytes]] = []
-    if target is not None:
-        outputs = [(f"{target}.report.json", report.to_json()), (f"{target}.junit.xml", report.to_junit())]
-        if plot is not None:
-            from .plot import map_bytes
-
-            outputs.append((f"{target}.{plot}", map_bytes(report, plot)))
-    counts = ", ".join(f"{n} {v}" for v, n in report.counts.items())
-    code = 3 if any(p.code == 3 for p in done.parts) else EXIT_OK if report.passed else EXIT_FAIL
-    outcome = batch.Outcome(path, code, f"{plural(len(variations), 'variation')}: {counts}", outputs=outputs,
-                            result="" if code != 3 else "ERROR")  # fmt: skip
-    if junit:
-        outcome.junit = report.to_junit()
-    return outcome
-
-
-def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequence[str | None],
-                    plot: str | None, system: Any = None) -> tuple[Any, Callable[..., batch.Outcome], Callable[[int], tuple[object, ...]]]:  # fmt: skip
-    """``run FILE... --executor dask``: the cluster, the job and its arguments for the CLI's batch.
-
-    Each file is read here (with the loader's limits) and its bytes travel with
-    its task, so workers need no copy of the files; the files the cases name
-    (SUMO configurations and their networks and routes) and the ``--plugin``
-    files are sent to every worker once. The outputs come back as data and the
-    CLI writes them here, never on a worker.
-    """
-    executor = make_executor(args)
-    shipped: list[tuple[bytes | None, list[Problem], SystemSpec | None]] = []
-    for path in files:
-        try:
-            raw: bytes | None = _read(path)
-            problems: list[Problem] = []
-        except InvalidTestCase as error:
-            raw, problems = None, list(error.problems)
-        shipped.append((raw, problems, _system_of(raw, path, system)))
-    options = ship(executor, run_options(args), [s for _, _, s in shipped], default_registry(()))
-
-    def job_args(i: int) -> tuple[object, ...]:
-        raw, problems, spec = shipped[i]
-        return (options, raw, problems, targets[i], plot, bool(args.junit), spec)
-
-    return executor, job_run_shipped, job_args
-
-
-def _system_of(raw: bytes | None, path: str, system: SystemSpec | None) -> SystemSpec | None:
-    """The system of the file *path* holding *raw*, resolved here (None if it cannot be read: the worker says why)."""
-    if system is not None or raw is None:
-        return system
-    try:
-        document = parse_json(raw, path)
-    except InvalidTestCase:
-        return None
-    return resolved_system(document, path, None)
-
-
-def _read(path: str) -> bytes:
-    """The file's bytes, with the loader's checks (size limit, no FIFOs) - read once, here."""
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO would block the open
-            raise InvalidTestCase([Problem((), "not a regular file", "json")], path)
-        with open(path, "rb") as fh:
-            raw = fh.read(MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise InvalidTestCase([Problem((), f"cannot read file: {exc.strerror or exc}", "json")], path) from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise InvalidTestCase([Problem((), f"file is larger than {MAX_FILE_BYTES} bytes", "limit")], path)
-    return raw
+    return ExitCode.OK if report.passed else ExitCode.FAIL

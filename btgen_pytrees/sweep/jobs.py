@@ -7,10 +7,10 @@ case's own system come as a resolved :class:`~btgen_pytrees.systems.SystemSpec`
 per case) - so it runs the same in a local worker process and on a Dask worker
 on another machine, in another directory. Files a run reads (a SUMO
 configuration and its network, a plugin file) are named by their absolute
-path on the client; on a cluster they were shipped (:mod:`.shipping`) and each
-path is mapped to the worker's copy. It returns a :class:`VariationOutcome` - a batch
-:class:`~btgen_pytrees.batch.Outcome` carrying the row for the sweep report -
-so :func:`btgen_pytrees.batch.process` (its pool, its progress bar, its error
+path on the client; on a cluster they were shipped (:mod:`btgen_pytrees.parallel.shipping`)
+and each path is mapped to the worker's copy. It returns a :class:`VariationOutcome` - an
+:class:`~btgen_pytrees.parallel.Outcome` carrying the row for the sweep report -
+so :func:`btgen_pytrees.parallel.process` (its pool, its progress bar, its error
 guard) runs sweeps and batches alike.
 """
 
@@ -20,16 +20,17 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
-from ..batch import Outcome, defaults_only, guard, run_case
-from ..errors import ExitCode, InvalidTestCase
+from ..errors import ExitCode
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
-from ..loader import MAX_WORK, check_work, parse_json, validate
+from ..loader import MAX_WORK, check_work, validate
+from ..parallel import Outcome, guard
+from ..parallel.shipping import local
+from ..run import run
 from ..contracts.system import SystemSpec
-from .shipping import local
 
 __all__ = ["VariationOutcome", "ChunkOutcome", "RunOptions", "job_variation", "job_chunk", "chunk_size",
-           "job_run_shipped", "row_of", "margin_of"]  # fmt: skip
+           "registry_for", "row_of", "margin_of"]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -66,7 +67,7 @@ class VariationOutcome(Outcome):
 
 
 @lru_cache(maxsize=8)
-def _registry(plugins: tuple[str, ...]) -> Registry:
+def registry_for(plugins: tuple[str, ...]) -> Registry:
     """One registry per worker process and plugin list (building one imports the plugins)."""
     return default_registry(plugins)
 
@@ -104,9 +105,7 @@ def job_variation(label: str, options: RunOptions, source: str, document: Mappin
 
     *system*: the system to run against (``--system``, or the case's own with its configuration
     resolved on the client); None: the document's, resolved here (only for documents without files)."""
-    from ..run import run  # lazily: the run package is ~120 ms of every command's start-up otherwise
-
-    registry = _registry(options.local_plugins())
+    registry = registry_for(options.local_plugins())
     case = validate(document, source, registry, options.local_system(system))
     budget = MAX_WORK if options.max_work is None else options.max_work
     check_work(case, budget)
@@ -115,23 +114,6 @@ def job_variation(label: str, options: RunOptions, source: str, document: Mappin
     row = row_of(report)
     line = f"{report.verdict} after {report.duration:g} s" + (f": {row['message']}" if row["message"] else "")
     return VariationOutcome(label, ExitCode.OK if report.passed else ExitCode.FAIL, line, row=row)
-
-
-def job_run_shipped(path: str, options: RunOptions, raw: bytes | None, problems: Sequence[Any],
-                    target: str | None, plot: str | None = None, junit: bool = False,
-                    system: SystemSpec | None = None) -> Outcome:  # fmt: skip
-    """``run`` of one file of a batch on a cluster: the file's bytes travel with the task.
-
-    Only the reading differs from :func:`btgen_pytrees.batch.job_run`: both end
-    in :func:`btgen_pytrees.batch.run_case`, whose outputs (report, JUnit, plot)
-    come back as data for the client to write; *problems* are what reading the
-    file found on the client (then *raw* is None). *system* as for :func:`job_variation`.
-    """
-    if raw is None:
-        raise InvalidTestCase(problems, path)
-    registry = _registry(options.local_plugins())
-    case = validate(parse_json(raw, path), path, registry, options.local_system(system))
-    return defaults_only(run_case(path, case, registry, target, plot, junit, options.max_work, options.require_complete), raw)
 
 
 @dataclass

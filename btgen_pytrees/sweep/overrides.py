@@ -34,7 +34,7 @@ import os
 from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
-from ..errors import InvalidTestCase, Problem, shorten
+from ..errors import InvalidTestCase, Problem, UserError, shorten
 from ..leaves import Registry
 from ..loader import load_json
 from ..text import closest
@@ -47,12 +47,15 @@ MAX_NAME = 200
 """A case name's longest (the schema's ``maxLength``); a longer ``name[label]`` has its label shortened."""
 
 
-class ParameterError(ValueError):
+class ParameterError(UserError, ValueError):
     """Given parameters that cannot be used (unknown, wrong type, malformed): one message per line."""
 
     def __init__(self, lines: Sequence[str]):
         super().__init__("\n".join(lines))
         self.lines = list(lines)
+
+    def messages(self) -> list[str]:
+        return self.lines
 
 
 @dataclass(frozen=True)

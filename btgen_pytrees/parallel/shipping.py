@@ -32,13 +32,15 @@ import threading
 from dataclasses import dataclass
 from typing import Iterable
 
+from ..errors import UserError
+
 __all__ = ["Files", "ShippingError", "read_files", "install", "local", "MAX_SHIPPED_BYTES"]
 
 MAX_SHIPPED_BYTES = 256 * 1024 * 1024
 """Most bytes one run of a command ships to the workers (every file together)."""
 
 
-class ShippingError(ValueError):
+class ShippingError(UserError, ValueError):
     """A file to ship cannot be read or the files are too large; ``str()`` says which (a usage error)."""
 
 

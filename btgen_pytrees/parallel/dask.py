@@ -1,9 +1,9 @@
-"""Where runs execute: the local process pool, or a Dask ``distributed`` cluster.
+"""Runs on a Dask ``distributed`` cluster instead of the local process pool.
 
-The default engine is :func:`btgen_pytrees.batch.process`'s local process pool
+The default engine is :func:`btgen_pytrees.parallel.process`'s local process pool
 (``--jobs N``). :class:`DaskExecutor` hands the same calls to an existing Dask
 cluster instead (``--executor dask --scheduler tcp://HOST:PORT``, or the
-``DASK_SCHEDULER_ADDRESS`` variable); ``batch.process(..., executor=...)`` uses
+``DASK_SCHEDULER_ADDRESS`` variable); ``process(..., executor=...)`` uses
 it for a sweep's variations and for a batch of files alike.
 
 What the cluster gets and gives back:
@@ -27,7 +27,7 @@ What the cluster gets and gives back:
   result once, tagged with its index - a chunk whose worker died is run again
   elsewhere by the scheduler (up to ``distributed.scheduler.allowed-failures``
   times) and still completes only once. A chunk that keeps killing workers comes
-  back as a :class:`TaskFailed` for each of its calls (``batch.process`` records
+  back as a :class:`TaskFailed` for each of its calls (``process`` records
   it as an internal error, code 3), so the final report is complete either way.
 * **Cancellation.** If the consumer stops early (Ctrl-C raises
   ``KeyboardInterrupt`` in the loop, or the generator is closed), every task not
@@ -47,6 +47,7 @@ import threading
 import uuid
 from typing import Any, Callable, Iterator, Sequence
 
+from ..errors import UserError
 from .shipping import Files, install
 
 __all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "SchedulerLost", "TaskFailed", "scheduler_address",
@@ -61,7 +62,7 @@ MAX_CHUNK = 64
 HINT = "--executor dask needs dask and distributed: pip install 'btgen_pytrees[dask]'"
 
 
-class DaskUnavailable(RuntimeError):
+class DaskUnavailable(UserError, RuntimeError):
     """The cluster cannot be used (extra not installed, scheduler unreachable); ``str()`` says why."""
 
 

@@ -60,7 +60,7 @@ def _time(run: Callable[[], Any], repeats: int) -> tuple[float, Any]:
 
 def measure(data: dict[str, Any], source: str, repeats: int, dask: bool = True) -> dict[str, Any]:
     from btgen_pytrees.sweep import load_sweep
-    from btgen_pytrees.sweep.command import run_variations
+    from btgen_pytrees.sweep.runs import run_variations
     from btgen_pytrees.sweep.jobs import RunOptions
 
     start = time.perf_counter()

@@ -28,7 +28,7 @@ from .render import render
 from .run import run
 from .run.plot import plot_bytes
 from .sweep import MAX_VARIATIONS, has_variations, load_sweep
-from .sweep.command import resolved_system, sweep_report
+from .sweep.runs import resolved_system, sweep_report
 from .sweep.jobs import RunOptions, job_chunk, registry_for
 from .sweep.plot import map_bytes
 from .sweep.variations import Variations

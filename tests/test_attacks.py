@@ -21,6 +21,7 @@ from typing import Any
 import pytest
 from helpers import case, entry
 
+from btgen_pytrees import batch as batch_module
 from btgen_pytrees import cli as cli_module
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -194,7 +195,7 @@ def test_validate_prints_an_internal_error(work: pathlib.Path, monkeypatch: pyte
     def broken(path: str, *args: object) -> Any:
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(cli_module.batch, "job_validate", broken)
+    monkeypatch.setattr(batch_module, "job_validate", broken)
     assert cli_module.main(["validate", str(work / "fig1.json")]) == 3
     assert "fig1.json: internal error: RuntimeError: boom" in capsys.readouterr().err
 

@@ -231,7 +231,7 @@ def test_expand_writes_concrete_cases_that_run_like_the_sweep(tmp_path: pathlib.
 
 
 def test_file_names_are_filesystem_safe() -> None:
-    from btgen_pytrees.sweep.command import file_name
+    from btgen_pytrees.sweep.runs import file_name
 
     assert file_name("cut in/out: v2", "gap=5,speed=-1.5", 0) == "cut_in_out__v2[gap=5,speed=-1.5].json"
     long = file_name("n", ",".join(f"p{i}=1" for i in range(60)), 7)

@@ -1,7 +1,7 @@
 """The job a worker runs for the search: the sweep's variation job, timed.
 
 It runs where the sweep's variations run (the local process pool or a Dask
-worker, through :func:`btgen_pytrees.sweep.command.run_variations`), with the
+worker, through :func:`btgen_pytrees.sweep.runs.run_variations`), with the
 case as data: each run is :func:`btgen_pytrees.sweep.jobs.job_variation` - so its
 row carries the report's verdict and each criterion's margin, exactly as a
 sweep row does - and its row gets ``wall``, the run's wall-clock seconds.

@@ -1,0 +1,137 @@
+"""``falsify SWEEP.json``: search the sweep's box for a failing setting (docs/falsify.md).
+
+Everything that can be refused is refused before the first run (exit 2): the
+extra, the file (the template and the nominal case are validated like a
+sweep's), the ``search`` block, the options, the output paths, the scheduler.
+Exit 1 when a run failed, 0 when none did within the budget; Ctrl-C keeps
+what was found (the outputs are written) and exits 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import signal
+import sys
+from typing import Any
+
+from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
+from ..falsify.cases import concrete_case, counterexample_files, evaluator, settings_of
+from ..falsify.margins import groups_of
+from ..falsify.plot import search_plot
+from ..falsify.report import report_data, table, to_json
+from ..falsify.sampler import HINT, METHODS, available
+from ..falsify.search import Search
+from ..falsify.space import Space
+from ..loader import validate
+from ..output import check_target, commit, emit
+from ..parallel import Interrupted, progress_stream
+from ..run.plot import plot_format
+from ..sweep.case import Sweep, load_sweep
+from ..sweep.variations import format_value
+from .options import Parents, registry
+from .sweep import add_executor_options, make_executor, run_options
+
+__all__ = ["add_parser", "cmd_falsify"]
+
+_MAX_LIMIT = 10**18
+
+
+def add_parser(sub: Any, parents: Parents) -> None:
+    """The ``falsify`` subcommand and its own options (``--jobs``, ``--plugin`` come from the shared parents)."""
+    parser = sub.add_parser("falsify", parents=[parents.plugin, parents.many], help="search a sweep's parameter box for a failing setting (docs/falsify.md)")
+    parser.add_argument("file", metavar="SWEEP", help="a test case with a variations block (its box is searched)")
+    parser.add_argument("--method", choices=METHODS, help="search method (default: the file's search.method, else auto)")
+    parser.add_argument("--budget", type=int, metavar="N", help="most runs (default: search.budget, else 200)")
+    parser.add_argument("--seed", type=int, metavar="S", help="seed of the search (default: search.seed, else 0)")
+    parser.add_argument("--batch", type=int, metavar="N", help="runs asked and run together (default: search.batch, else 8)")
+    parser.add_argument("--stop", choices=("first", "all"), help="first: stop after the first failure's cluster is shrunk and bounded; all (default): search to the end of the budget")
+    parser.add_argument("--json", metavar="REPORT", help="write the search as JSON (schemas/falsify.schema.json)")
+    parser.add_argument("--plot", metavar="PATH", help="draw convergence and the parameter space coloured by margin (.svg/.png; needs the 'plot' extra)")
+    add_executor_options(parser)
+    parser.set_defaults(func=cmd_falsify)
+
+
+def load(args: argparse.Namespace) -> Sweep:
+    sweep = load_sweep(args.file, registry=registry(args), max_variations=_MAX_LIMIT, check_all=False)
+    if not sweep.variations.axes:
+        raise InvalidTestCase([Problem(("variations",), "falsify searches the box of a 'variations' block; this case has none", "parameter")], sweep.source)
+    return sweep
+
+
+def progress_line(stream: Any) -> Any:
+    def show(search: Search) -> None:
+        best = min((r.objective for r in search.runs if r.objective is not None), default=None)
+        fails = sum(1 for r in search.runs if r.failed)
+        stream.write(f"\rfalsify: {len(search.runs)}/{search.settings.budget} runs, best margin "
+                     f"{'-' if best is None else format_value(round(best, 6) + 0.0)}, {fails} failing   ")  # fmt: skip
+        stream.flush()
+
+    return show
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """--json, --plot and --out-dir can be written (checked before anything runs)."""
+    for path, option in ((args.json, "--json"), (args.plot, "--plot")):
+        if path:
+            check_target(path, option, [args.file])  # OutputError: a usage error
+    out = args.out_dir
+    if out and os.path.exists(out) and not os.path.isdir(out):
+        raise UsageError(f"--out-dir {out}: exists and is not a directory")
+
+
+def cmd_falsify(args: argparse.Namespace) -> int:
+    """Run the search; see the module notes for exit codes."""
+    if not available():
+        raise UsageError(HINT)
+    sweep = load(args)
+    criteria = {c.get("id") for c in (sweep.template.get("oracle") or {}).get("criteria", []) if isinstance(c, dict)}
+    settings = settings_of(sweep.search, vars(args), {c for c in criteria if isinstance(c, str)}, sweep.source)
+    check_outputs(args)
+    if args.plot:  # a bad suffix or a missing extra: refused before anything runs
+        try:
+            plot_format(args.plot)
+        except ValueError as problem:
+            raise UsageError(str(problem)) from None
+        if importlib.util.find_spec("matplotlib") is None:
+            raise UsageError("--plot needs matplotlib: pip install -e '.[plot]'")
+    space = Space.of(sweep.variations)
+    known = registry(args)
+    groups = groups_of(validate(concrete_case(sweep, {}), sweep.source, known))
+    executor = make_executor(args)
+    stream = progress_stream()
+    evaluate = evaluator(sweep, run_options(args), args.jobs, executor)
+    search = Search(space, sweep.defaults, settings, evaluate, groups, progress_line(stream) if stream else None)
+    signum = None
+    try:
+        try:
+            search.run()
+        except Interrupted as stop:
+            search.interrupted, signum = True, stop.signum
+    finally:
+        if executor is not None:
+            executor.close()
+        if stream is not None:
+            stream.write("\n")
+    if search.interrupted and signum is None:
+        signum = signal.SIGINT
+    data = report_data(search, sweep.name, sweep.source)
+    outputs: list[tuple[str, str | bytes]] = []
+    if args.json:
+        outputs.append((args.json, to_json(data)))
+    if args.out_dir and data["counterexamples"]:
+        os.makedirs(args.out_dir, exist_ok=True)
+        cases, notes = counterexample_files(sweep, data, args.out_dir, known)
+        for note in notes:
+            print(f"btgen_pytrees: {note}", file=sys.stderr)
+        outputs += cases
+    if args.plot:
+        outputs.append((args.plot, search_plot(search, data, plot_format(args.plot))))
+    commit(outputs)
+    emit(table(data))  # the real stdout (the CLI sends file descriptor 1 to stderr for user code)
+    if signum is not None:
+        emit(f"btgen_pytrees: interrupted by {signal.Signals(signum).name} after {len(search.runs)} runs; what was found is kept\n",
+             sys.stderr)  # fmt: skip
+        return 128 + signum
+    return ExitCode.FAIL if data["failures"] else ExitCode.OK

@@ -1,0 +1,115 @@
+"""What the search runs and what it leaves as cases: the settings (the file's ``search`` block, the
+options winning), the concrete case of a point, a batch of points run as a sweep's variations (their
+rows, with each criterion's margin), and the counterexamples as case files with their replay pages.
+
+The command line's half (the options, the checks before anything runs, the printing) is
+:mod:`btgen_pytrees.cli.falsify`; this module takes plain values and prints nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Callable, Mapping
+
+from ..construct import generate
+from ..errors import InvalidTestCase, Problem, UsageError
+from ..leaves import Registry
+from ..loader import validate
+from ..render import GraphvizMissing
+from ..run import run
+from ..run.replay import replay_html
+from ..sweep.case import Sweep, Variation
+from ..sweep.jobs import RunOptions, VariationOutcome
+from ..sweep.runs import file_name, run_variations
+from .jobs import job_probe
+from .margins import row_margins
+from .search import Settings
+
+__all__ = ["settings_of", "concrete_case", "evaluator", "counterexample_files"]
+
+
+def _bad(path: tuple[Any, ...], message: str) -> Problem:
+    return Problem(("search", *path), message, "parameter")
+
+
+def settings_of(block: Mapping[str, Any] | None, options: Mapping[str, Any], criteria: set[str], source: str) -> Settings:
+    """The search's settings: the file's ``search`` block (its schema was checked), the *options*
+    (``budget``, ``method``, ``seed``, ``batch``, ``stop``, ``start``; None: not given) winning.
+
+    Raises:
+        InvalidTestCase: a ``scale`` names no criterion.
+        UsageError: an option out of range.
+    """
+    block = dict(block or {})
+    problems = [_bad(("scale", k), f"{k!r} is not a criterion of the oracle (criteria: {', '.join(sorted(criteria)) or 'none'})")
+                for k in block.get("scale", {}) if k not in criteria]  # fmt: skip
+    if problems:
+        raise InvalidTestCase(problems, source)
+    for option, low in (("budget", 1), ("batch", 1), ("seed", 0)):
+        value = options.get(option)
+        if value is not None and value < low:
+            raise UsageError(f"--{option} {value}: must be at least {low}")
+    pick = {k: (options.get(k) if options.get(k) is not None else block.get(k))
+            for k in ("budget", "method", "seed", "batch", "stop", "start")}  # fmt: skip
+    given = {k: v for k, v in pick.items() if v is not None}
+    return Settings(scale=dict(block.get("scale", {})), **given)
+
+
+def concrete_case(sweep: Sweep, values: Mapping[str, Any], where: str | None = None) -> dict[str, Any]:
+    """The concrete case for *values*, runnable from *where* (a folder): a system ``config`` path is
+    rewritten relative to it (the sweep's is relative to the sweep's folder)."""
+    doc = sweep.document({**sweep.defaults, **values})
+    system = doc.get("system")
+    if where is not None and isinstance(system, dict) and isinstance(system.get("config"), str) and not os.path.isabs(system["config"]):
+        full = os.path.join(os.path.dirname(os.path.abspath(sweep.source)), system["config"])
+        doc["system"] = {**system, "config": os.path.relpath(full, os.path.abspath(where))}
+    return doc
+
+
+def evaluator(sweep: Sweep, options: RunOptions, workers: int, executor: Any) -> Callable[[list[dict[str, Any]]], list[dict[str, Any]]]:
+    """The search's ``evaluate``: a batch of points run as the sweep's variations (numbered on from 0
+    across batches), each a row with its verdict and every criterion's margin."""
+    counter = [0]
+
+    def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        variations = []
+        for values in points:
+            point = tuple(values.items())
+            variations.append(Variation(counter[0], point, {**sweep.defaults, **values}, concrete_case(sweep, values)))
+            counter[0] += 1
+        outcomes = run_variations(sweep, variations, options, None, workers, executor, None, job=job_probe)
+        rows = []
+        for o in outcomes:
+            if isinstance(o, VariationOutcome):
+                row = dict(o.row)
+            else:
+                row = {"verdict": "error", "message": o.summary if not o.problems else "; ".join(o.problems),
+                       "duration": 0.0, "ticks": 0, "oracles": [], "wall": 0.0}  # fmt: skip
+            row["margins"] = row_margins(row)
+            rows.append(row)
+        return rows
+
+    return evaluate
+
+
+def counterexample_files(sweep: Sweep, data: Mapping[str, Any], out_dir: str,
+                         registry: Registry) -> tuple[list[tuple[str, str | bytes]], list[str]]:  # fmt: skip
+    """Each counterexample as a concrete case in *out_dir* (runnable from any directory) and its replay
+    page (``.html`` beside it); and a note for each page that could not be drawn (Graphviz is missing)."""
+    outputs: list[tuple[str, str | bytes]] = []
+    notes: list[str] = []
+    for k, ce in enumerate(data["counterexamples"]):
+        doc = concrete_case(sweep, ce["parameters"], out_dir)
+        what = f"counterexample {k + 1} ({ce['kind']}, cluster {ce['cluster']}) of {os.path.basename(sweep.source)} found by falsify: {ce['label']}"
+        doc["description"] = f"{doc['description']} ({what})" if doc.get("description") else what[0].upper() + what[1:]
+        path = os.path.join(out_dir, file_name(sweep.name, ce["label"], ce["run"]))
+        outputs.append((path, json.dumps(doc, indent=2, ensure_ascii=False) + "\n"))
+        try:
+            case = validate(doc, path, registry)
+            page = replay_html(run(case, registry=registry), case, generate(case, registry=registry))
+        except GraphvizMissing as missing:
+            notes.append(f"no replay pages: {missing}")
+            continue
+        outputs.append((os.path.splitext(path)[0] + ".html", page))
+    return outputs, notes

@@ -4,17 +4,20 @@ these tests say so."""
 
 from __future__ import annotations
 
+import gc
 import os
 import types
 import uuid
 
 import py_trees
 import pytest
-from helpers import case, crit, entry
+from helpers import case, chain, crit, entry
 from py_trees.common import Status
 
 import btgen_pytrees
+from btgen_pytrees.clock import VirtualClock
 from btgen_pytrees.leaves.node import Node, new_id
+from btgen_pytrees.run import run_tree
 
 
 class _Stock(py_trees.behaviour.Behaviour):
@@ -27,10 +30,13 @@ class _Ours(Node):
         return Status.SUCCESS
 
 
+LAZY = {"_iterator": "iterator", "_blackboards": "blackboards"}  # made when first read, behind properties
+
+
 def test_a_node_has_what_a_stock_behaviour_has_in_the_same_order() -> None:
     stock, ours = _Stock("a name"), _Ours("a name")
-    assert list(vars(ours)) == [k for k in vars(stock) if k != "iterator"]  # made when first read
-    assert ours.iterator is ours.iterator and list(vars(ours)) == [*(k for k in vars(stock) if k != "iterator"), "iterator"]
+    assert [LAZY.get(k, k) for k in vars(ours)] == list(vars(stock))
+    assert ours._iterator is None and ours._blackboards is None
     for key, expected in vars(stock).items():
         got = getattr(ours, key)
         assert type(got) is type(expected), key
@@ -38,17 +44,30 @@ def test_a_node_has_what_a_stock_behaviour_has_in_the_same_order() -> None:
             assert got != expected and got.version == 4 and got.variant == uuid.RFC_4122
         elif key == "iterator":
             assert isinstance(got, types.GeneratorType) and got.gi_code is expected.gi_code
+            assert ours.iterator is got  # made once
         elif key == "logger":
             assert vars(got) == vars(expected)
         elif key == "qualified_name":
             assert got == "_Ours/a name" and expected == "_Stock/a name"
         else:
             assert got == expected, key
-    assert ours.children is not _Ours("b").children and ours.blackboards is not _Ours("b").blackboards
+    assert [LAZY.get(k, k) for k in vars(ours)] == list(vars(stock))  # reading them added no attribute
+    other = _Ours("b")
+    assert ours.children is not other.children and ours.blackboards is not other.blackboards
     with pytest.raises(TypeError, match="name should be a string"):
         _Ours(3)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="name should be a string"):
         _Stock(3)  # type: ignore[arg-type]
+
+
+def test_a_client_attaches_as_to_a_stock_behaviour() -> None:
+    ours, stock = _Ours("leaf"), _Stock("leaf")
+    for node in (ours, stock):
+        client = node.attach_blackboard_client()
+        assert node.blackboards == [client] and client.name == "leaf"
+        client.unregister()
+    ours.blackboards = []
+    assert ours.blackboards == [] and ours._blackboards == []
 
 
 def test_decorators_reach_it_through_decorator_init() -> None:
@@ -59,7 +78,7 @@ def test_decorators_reach_it_through_decorator_init() -> None:
     child = _Ours("child")
     wrapped = Pass(name="wrap", child=child)
     stock = py_trees.decorators.PassThrough(name="wrap", child=_Stock("child"))
-    assert list(vars(wrapped)) == [k for k in vars(stock) if k != "iterator"]
+    assert [LAZY.get(k, k) for k in vars(wrapped)] == list(vars(stock))
     assert wrapped.children == [child] and child.parent is wrapped and wrapped.decorated is child
     assert wrapped.qualified_name.endswith(".Pass/wrap")
 
@@ -70,7 +89,7 @@ def test_stop_makes_a_new_iterator_as_py_trees_does() -> None:
     first = ours.iterator
     ours.stop(Status.INVALID)
     assert isinstance(ours.iterator, types.GeneratorType) and ours.iterator is not first
-    assert _Ours.iterator is vars(Node)["iterator"]  # the class attribute stays the descriptor
+    assert [LAZY.get(k, k) for k in vars(ours)] == list(vars(_Stock("x")))  # no attribute added by stop()
 
 
 def test_ids_are_version_4_and_distinct() -> None:
@@ -109,3 +128,19 @@ def test_every_node_the_generator_makes_of_its_own_is_one() -> None:
     stock = {type(n).__name__ for n in nodes if not isinstance(n, Node)}
     assert stock == {"TreeRoot", "WakingParallel", "Sequence", "Parallel"}  # composites: py_trees' own __init__
     assert len({n.id for n in nodes}) == len(nodes)
+
+
+def _dicts() -> int:
+    gc.collect()
+    return sum(1 for o in gc.get_objects() if type(o) is dict)
+
+
+def test_a_run_gives_no_node_a_dict_of_its_own() -> None:
+    """Every attribute a node will have is set in __init__: one first set later (by stop()) makes
+    CPython give each node its own dict - 2,000 more objects here for the collector to walk."""
+    test = btgen_pytrees.load({**chain(2_000, duration=0.1), "timeout": 1_000})
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(test, clock=clock)
+    before = _dicts()
+    assert run_tree(root, test, clock).verdict == "pass"
+    assert _dicts() - before < 100

@@ -10,11 +10,16 @@ to the same values as ``Behaviour.__init__``, with two differences:
   ``uuid.UUID(int=...)``. What py_trees reads an id for - telling nodes apart (``add_child`` returns
   it, ``remove_child_by_id``, ``BehaviourTree.prune_subtree``, the display and snapshot visitors) -
   needs it unique, not unpredictable; the host's :mod:`random` state is never touched;
-* ``iterator``, the ``tick()`` generator ``Behaviour.__init__`` makes and ``stop()`` makes anew, is
-  made when first read: py_trees never reads it (it ticks through fresh ``tick()`` calls), and a
-  generator per node is one object in six that the garbage collector would walk at every full
-  collection while the tree is built. Until it is read or the node has stopped once, it is not in
-  the node's ``vars()``.
+* ``iterator``, the ``tick()`` generator ``Behaviour.__init__`` makes and ``stop()`` makes anew,
+  and ``blackboards``, the list of the node's blackboard clients, are made when first read: py_trees
+  never reads ``iterator`` (it ticks through fresh ``tick()`` calls), and reads ``blackboards`` only
+  to attach a client (:meth:`Environment.attach <btgen_pytrees.contracts.environment.Environment.attach>`:
+  the leaves that have one) and in views and the snapshot visitor. A generator and a list per node
+  are two objects in six that the garbage collector would walk at every full collection while the
+  tree is built. Both are properties over ``_iterator`` and ``_blackboards`` (``None`` until made),
+  set in ``__init__`` where ``Behaviour.__init__`` sets theirs: a node keeps the attribute layout its
+  class's first instance gave it (an attribute first set after ``__init__`` - by ``stop()`` - would
+  make CPython give each node a dict of its own).
 
 ``tests/test_node.py`` compares a :class:`Node` with a stock ``Behaviour`` attribute by attribute,
 so a py_trees release that changes ``Behaviour.__init__`` fails there, not in a user's tree.
@@ -29,7 +34,7 @@ from __future__ import annotations
 
 import os
 import random
-from typing import Any
+from typing import Iterator
 from uuid import UUID
 
 import py_trees
@@ -50,32 +55,45 @@ def new_id() -> UUID:
     return UUID(int=_bits(128) & _V4_MASK | _V4)
 
 
-class _Iterator:
-    """``node.iterator``: a ``node.tick()`` generator, made when first read (then an attribute of the node)."""
-
-    def __get__(self, node: "Node | None", owner: type | None = None) -> Any:
-        if node is None:
-            return self
-        node.iterator = node.tick()
-        return node.iterator
-
-
 class Node(py_trees.behaviour.Behaviour):
     """``py_trees.behaviour.Behaviour`` whose ``__init__`` draws its id without a system call and
-    leaves ``iterator`` to its first reader (see the module)."""
-
-    iterator: Any = _Iterator()
+    leaves ``iterator`` and ``blackboards`` to their first reader (see the module)."""
 
     def __init__(self, name: str):
         if not isinstance(name, str):
             raise TypeError(f"a behaviour name should be a string, but you passed in {type(name)}")
         self.id = new_id()
         self.name: str = name
-        self.blackboards: list[py_trees.blackboard.Client] = []
+        self._blackboards: list[py_trees.blackboard.Client] | None = None
         self.qualified_name = f"{self.__class__.__qualname__}/{name}"
         self.status = Status.INVALID
+        self._iterator: Iterator[py_trees.behaviour.Behaviour] | None = None
         self.parent: py_trees.behaviour.Behaviour | None = None
         self.children: list[py_trees.behaviour.Behaviour] = []
         self.logger = py_trees.logging.Logger(name)
         self.feedback_message = ""
         self.blackbox_level = BlackBoxLevel.NOT_A_BLACKBOX
+
+    @property  # type: ignore[override]
+    def blackboards(self) -> list[py_trees.blackboard.Client]:
+        """The py_trees blackboard clients attached to the node (a list made when first read)."""
+        found = self._blackboards
+        if found is None:
+            found = self._blackboards = []
+        return found
+
+    @blackboards.setter
+    def blackboards(self, clients: list[py_trees.blackboard.Client]) -> None:
+        self._blackboards = clients
+
+    @property  # type: ignore[override]
+    def iterator(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        """A ``tick()`` generator, as ``Behaviour.__init__`` and ``stop()`` keep (made when first read)."""
+        found = self._iterator
+        if found is None:
+            found = self._iterator = self.tick()
+        return found
+
+    @iterator.setter
+    def iterator(self, value: Iterator[py_trees.behaviour.Behaviour]) -> None:
+        self._iterator = value

@@ -1,7 +1,8 @@
 """Falsification: search a sweep's parameter box for a failing setting (docs/falsify.md).
 
 * :mod:`.space` - the ``variations`` block as a box: intervals, choices, priors
-* :mod:`.sampler` - ``ask(n)``/``tell(values)`` over Optuna's samplers and ``cmaes`` (the ``search`` extra)
+* :mod:`.sampler` - ``ask(n)``/``tell(values)`` over the model, ``cmaes`` and Optuna's samplers (the ``search`` extra)
+* :mod:`.surrogate` - the ``gp`` method's Gaussian-process model
 * :mod:`.margins` - each criterion's margin and the objective combined from them
 * :mod:`.jobs` - the worker's job: a sweep variation's run, with its margins
 * :mod:`.search` - the loop: start, search, shrink, bound, clusters

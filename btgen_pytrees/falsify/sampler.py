@@ -1,9 +1,16 @@
-"""``ask(n)`` / ``tell(values)``: the search's sampler, over Optuna's samplers and the ``cmaes`` library.
+"""``ask(n)`` / ``tell(values)``: the search's sampler, over our Gaussian-process model, the ``cmaes``
+library and Optuna's samplers.
 
-Every method starts with a *space-filling* stage: a scrambled Sobol sequence
-(Optuna's ``QMCSampler``) over the unit box (:mod:`.space`), so the first
-runs cover the box evenly and give the objective's scale. Then:
+Every method but ``random`` starts with a *space-filling* stage: a scrambled
+Sobol sequence over the unit box (:mod:`.space`; SciPy's ``qmc.Sobol``, the
+sequence Optuna's ``QMCSampler`` draws, without its cost per point), so the
+first runs cover the box evenly and give the objective's scale. Then:
 
+* ``gp`` - a Gaussian-process model of the objective (:mod:`.surrogate`),
+  refitted after every batch; each batch is the quadratic model's minimum
+  (when there are runs enough for one), then the points most likely to fail
+  under the model, spread by "kriging believer". List parameters are drawn
+  uniformly.
 * ``cmaes`` - CMA-ES (the ``cmaes`` library, which Optuna's ``CmaEsSampler``
   wraps; used directly because Optuna 5 deprecates that sampler's ``x0``,
   ``sigma0`` and restarts) started at the best start point with step size 0.2
@@ -16,12 +23,11 @@ runs cover the box evenly and give the objective's scale. Then:
   given every run so far; for mixed and categorical spaces.
 * ``sobol`` - the Sobol sequence on (space-filling only); ``random`` - uniform
   random (Optuna's ``RandomSampler``; no start stage: it is the baseline).
-* ``auto`` - ``cmaes`` when there are at least two continuous parameters and
-  no list, ``tpe`` otherwise.
+* ``auto`` - ``gp`` when every parameter is continuous, ``tpe`` when there is a list.
 
 Points are asked in batches and told in the order they were asked, so a seed
-gives the same search whatever the number of workers. Optuna's and NumPy's
-generators are seeded from the seed; nothing global is changed (Optuna's log
+gives the same search whatever the number of workers. Optuna's, NumPy's and
+SciPy's generators are seeded from the seed; nothing global is changed (Optuna's log
 level is raised only around its calls, and put back).
 """
 
@@ -33,10 +39,11 @@ import warnings
 from typing import Any, Callable, Iterator, Sequence
 
 from .space import Space
+from .surrogate import Model, quadratic_minimum
 
 __all__ = ["Sampler", "METHODS", "SearchUnavailable", "HINT", "available", "resolve_method"]
 
-METHODS = ("auto", "cmaes", "tpe", "sobol", "random")
+METHODS = ("auto", "gp", "cmaes", "tpe", "sobol", "random")
 HINT = "falsify needs the 'search' extra (optuna, cmaes, scipy): pip install -e '.[search]'"
 
 SIGMA0 = 0.2
@@ -61,9 +68,12 @@ def available() -> bool:
 
 
 def resolve_method(method: str, space: Space) -> str:
-    """``auto`` -> ``cmaes`` or ``tpe``; ``cmaes`` on fewer than two continuous parameters -> ``tpe``."""
+    """``auto`` -> ``gp`` or ``tpe``; ``cmaes`` on fewer than two continuous parameters -> ``tpe``;
+    ``gp`` without a continuous parameter -> ``tpe``."""
     if method == "auto":
-        return "cmaes" if len(space.continuous) >= 2 and not space.categorical else "tpe"
+        return "gp" if space.continuous and not space.categorical else "tpe"
+    if method == "gp" and not space.continuous:
+        return "tpe"
     if method == "cmaes" and len(space.continuous) < 2:
         return "tpe"  # the library's CMA-ES needs two dimensions at least
     return method
@@ -112,14 +122,20 @@ class Sampler:
         dists = optuna.distributions
         self._dists = {d.name: (dists.FloatDistribution(0.0, 1.0) if d.continuous else
                                 dists.CategoricalDistribution(list(range(len(d.choices))))) for d in space.dimensions}  # fmt: skip
-        with _quiet(optuna):
-            first = (optuna.samplers.RandomSampler(seed=seed) if self.method == "random" else
-                     optuna.samplers.QMCSampler(qmc_type="sobol", scramble=True, seed=seed, warn_independent_sampling=False,
-                                                warn_asynchronous_seeding=False))  # fmt: skip
-            self._study = optuna.create_study(sampler=first)
+        self._study: Any = None
+        self._sobol: Any = None
+        if self.method == "random":
+            with _quiet(optuna):
+                self._study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=seed))
+        else:  # the Sobol sequence Optuna's QMCSampler draws, from SciPy directly (a fraction of its cost per point)
+            from scipy.stats import qmc
+
+            self._sobol = qmc.Sobol(d=len(space.dimensions), scramble=True, seed=seed)
         self._stage = "start" if self.start else self.method
         self._rng = numpy.random.default_rng(seed)
         self._cma: Any = None
+        self._queue: list[list[float]] = []
+        self._model = Model(self._rng)
         self._generation: list[tuple[Any, float | None]] = []
         self._starts: list[list[float]] = []
         self._stale = 0
@@ -144,14 +160,21 @@ class Sampler:
             for _ in range(n):
                 if self._stage == "cmaes" and self.batch > 1 and not self._asked:  # one model point per batch
                     x = self._model_point()
-                    if x is None:
-                        trial = self._study.ask(self._dists)  # too few runs for a model: the Sobol sequence
-                        self._asked.append(("trial", trial, [float(trial.params[k]) for k in self._names]))
+                    if x is None:  # too few runs for a model: the Sobol sequence
+                        self._asked.append(("sobol", None, self._sobol_point()))
                     else:
                         self._asked.append(("model", x, self._with_choices(x)))
+                elif self._stage == "gp":
+                    if not self._asked:
+                        told = [(self._continuous(x), y) for x, y in zip(self.xs, self.ys) if y is not None]
+                        self._queue = self._model.propose([x for x, _ in told], [y for _, y in told], n, first=self._model_point())
+                    x = self._queue.pop(0)
+                    self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "cmaes":
                     x = self._cma.ask()
                     self._asked.append(("cma", x, self._with_choices(x)))
+                elif self._stage in ("start", "sobol"):  # the start, or the Sobol sequence on
+                    self._asked.append(("sobol", None, self._sobol_point()))
                 else:
                     trial = self._study.ask(self._dists)
                     self._asked.append(("trial", trial, [float(trial.params[k]) for k in self._names]))
@@ -196,7 +219,7 @@ class Sampler:
         """Go on with the Sobol sequence only (the objective gives no direction to follow)."""
         if self._stage == "start":
             self.start = math.inf  # type: ignore[assignment]
-        else:
+        elif self._stage != "random":  # uniform random fills the space already
             self._stage = "sobol"
 
     # -- stages -------------------------------------------------------------------------------------
@@ -215,6 +238,12 @@ class Sampler:
             self.restarts += 1
         elif stage == "cmaes":
             self._new_cma(SIGMA0)
+
+    def _sobol_point(self) -> list[float]:
+        """The next point of the scrambled Sobol sequence (a list parameter: its choice at that fraction)."""
+        u = self._sobol.random(1)[0]
+        return [float(v) if d.continuous else float(min(len(d.choices) - 1, int(v * len(d.choices))))
+                for d, v in zip(self.space.dimensions, u)]  # fmt: skip
 
     def _params(self, x: Sequence[float]) -> dict[str, Any]:
         return {k: (float(u) if d.continuous else int(u)) for k, d, u in zip(self._names, self.space.dimensions, x)}
@@ -259,36 +288,8 @@ class Sampler:
     def _model_point(self) -> Any:
         """The minimum of a quadratic model of the objective fitted to the best runs so far (as in
         lq-CMA-ES), or None when too few runs fit one; the first point of each CMA-ES batch."""
-        np = self._np
         told = [(self._continuous(x), y) for x, y in zip(self.xs, self.ys) if y is not None and not self.avoid(x)]
-        d = len(self.space.continuous)
-        full = (d + 1) * (d + 2) // 2
-        diagonal = 2 * d + 1
-        if len(told) >= full + 2:
-            terms = full
-        elif len(told) >= diagonal + 2:
-            terms = diagonal
-        else:
-            return None
-        told.sort(key=lambda p: p[1])
-        best = told[: max(terms + 2, min(len(told), 3 * terms))]
-        X = np.array([x for x, _ in best])
-        Y = np.array([y for _, y in best])
-
-        def features(P: Any) -> Any:
-            cols = [np.ones(len(P))] + [P[:, i] for i in range(d)]
-            if terms == full:
-                cols += [P[:, i] * P[:, j] for i in range(d) for j in range(i, d)]
-            else:
-                cols += [P[:, i] ** 2 for i in range(d)]
-            return np.stack(cols, axis=1)
-
-        coef = np.linalg.lstsq(features(X), Y, rcond=None)[0]
-        around = np.clip(X[0] + self._rng.normal(0.0, 0.1, size=(512, d)), 0.0, 1.0)
-        candidates = np.vstack([around, self._rng.random((512, d))])
-        values = features(candidates) @ coef
-        point = candidates[int(np.argmin(values))]
-        return np.clip(point, 0.0, 1.0)
+        return quadratic_minimum(told, len(self.space.continuous), self._rng)
 
     def _cma_tell(self) -> None:
         told = [y for _, y in self._generation if y is not None]

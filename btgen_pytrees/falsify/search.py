@@ -36,7 +36,7 @@ from typing import Any, Callable, Generator, Mapping, Sequence
 
 from ..sweep.variations import Value
 from .margins import combine
-from .sampler import Sampler
+from .sampler import Sampler, resolve_method
 from .space import Space
 
 __all__ = ["Settings", "Run", "Cluster", "Boundary", "Search", "RADIUS", "FAILING"]
@@ -59,10 +59,13 @@ class Settings:
     start: int | None = None
     scale: Mapping[str, float] = field(default_factory=dict)
 
-    def start_runs(self, space: Space) -> int:
-        """Space-filling runs first: ``start``, else 4 per parameter within a quarter of the budget;
+    def start_runs(self, space: Space, method: str | None = None) -> int:
+        """Space-filling runs first: ``start``, else (within a quarter of the budget) 2 per parameter and
+        at least 8 for the ``gp`` method (the model explores by itself), 4 per parameter for the others;
         a whole number of batches."""
-        n = self.start if self.start is not None else max(self.batch, min(4 * len(space.dimensions), self.budget // 4))
+        d = len(space.dimensions)
+        default = max(8, 2 * d) if resolve_method(method or self.method, space) == "gp" else 4 * d
+        n = self.start if self.start is not None else max(self.batch, min(default, self.budget // 4))
         return self.batch * max(1, math.ceil(n / self.batch))
 
 

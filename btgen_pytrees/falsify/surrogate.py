@@ -1,0 +1,189 @@
+"""A Gaussian-process model of the objective, and the batch of points most likely to fail under it.
+
+The ``gp`` method of :mod:`.sampler` asks it for each batch after the start.
+It is ordinary kriging on the unit box, small enough to refit every batch:
+
+* a **Gaussian process** with a constant mean and a squared-exponential kernel,
+  one length scale per continuous parameter (so the model is not separable: the
+  kernel couples the parameters, and a parameter the objective hardly depends on
+  gets a long scale). The scales maximise the profile likelihood over a few
+  candidates: at the first fit a range of equal scales, then each parameter's
+  halved and doubled; later fits start from the previous scales and try only
+  each parameter's scale times 0.6 and 1.6 (the model follows the runs without
+  a full search every batch);
+* a point's **acquisition** is its probability of failing under the model,
+  P(objective < 0) = Phi(-mean / sd): high near runs that came close to failing
+  and far from every run (exploration), with no weight to tune;
+* a **batch** is chosen greedily from candidate points (uniform ones, and ones
+  around the best runs at several distances): the most likely to fail first;
+  then the model is told that point's predicted value ("kriging believer": the
+  uncertainty around it shrinks, its mean stays) and the next is chosen, so a
+  batch spreads over the promising places instead of piling onto one.
+
+It is fitted to at most :data:`KEEP` runs (the best half and the most recent
+others) and scores :data:`CANDIDATES` points, so its cost per batch stays about
+a millisecond whatever the budget (the products stay small enough for the BLAS
+library to run them on one thread: on a busy machine its threads only wait for
+one another).
+NumPy and SciPy (the ``search`` extra) are imported where they are used.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+__all__ = ["Model", "quadratic_minimum", "KEEP", "CANDIDATES"]
+
+KEEP = 32
+"""Most runs the model is fitted to."""
+CANDIDATES = 256
+"""Candidate points per batch (half uniform, half around the best runs)."""
+_FIRST = (0.05, 0.1, 0.2, 0.35, 0.6, 1.0)
+_NUGGET = 1e-6
+_LONGEST = 4.0
+
+
+class Model:
+    """The model's state between batches (its length scales) and its generator."""
+
+    def __init__(self, rng: Any):
+        self.rng = rng
+        self.scales: Any = None
+
+    def propose(self, X: Sequence[Sequence[float]], y: Sequence[float], n: int, first: Any = None) -> list[list[float]]:
+        """*n* points of the unit box most likely to fail (objective < 0) under the model fitted to the
+        runs *X* (unit points, continuous coordinates) with objectives *y*; the most likely first
+        (*first*, if given, is taken first whatever its score: the others spread around it).
+        Uniform points when fewer than two runs are known."""
+        import numpy as np
+        from scipy import linalg
+        from scipy.linalg import lapack
+        from scipy.special import ndtr
+
+        rng = self.rng
+        Xa, ya = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
+        d = Xa.shape[1] if Xa.ndim == 2 else 0
+        if len(ya) < 2 or d == 0:
+            return [[float(u) for u in row] for row in rng.random((n, d))]
+        if len(ya) > KEEP:  # the best half and the most recent others
+            order = np.argsort(ya, kind="stable")
+            best = set(order[: KEEP // 2].tolist())
+            recent = [i for i in range(len(ya) - 1, -1, -1) if i not in best][: KEEP - len(best)]
+            keep = sorted(best | set(recent))
+            Xa, ya = Xa[keep], ya[keep]
+        mu = float(ya.mean())
+        r = ya - mu
+        sq = (Xa[:, None, :] - Xa[None, :, :]) ** 2  # n x n x d
+        self.scales = self._scales(np, linalg, sq, r, d)
+        L = self._factor(np, sq, self.scales)
+        inverse = np.tril(lapack.dtrtri(L, lower=1)[0])  # L^-1 (LAPACK's; a triangular solve with n right-hand sides is far slower)
+        a = inverse @ r
+        s2 = max(float(a @ a) / len(r), 1e-300)
+        alpha = inverse.T @ a
+        # candidates: uniform, and around the best runs at several distances
+        m_local = CANDIDATES // 2
+        ranked = np.argsort(ya, kind="stable")[:4]
+        centres = Xa[ranked[np.arange(m_local) % len(ranked)]]
+        spread = np.array([0.02, 0.05, 0.1, 0.2])[np.arange(m_local) % 4][:, None]
+        local = np.clip(centres + rng.normal(0.0, 1.0, size=(m_local, d)) * spread, 0.0, 1.0)
+        C = np.vstack([rng.random((CANDIDATES - m_local, d)), local] + ([np.asarray(first, dtype=float)[None, :]] if first is not None else []))
+        Xs, Cs = Xa / self.scales, C / self.scales
+        diff = Xs[:, None, :] - Cs[None, :, :]
+        k = np.exp(-0.5 * (diff * diff).sum(axis=2))  # n x m
+        V = inverse @ k
+        mean = mu + k.T @ alpha
+        var = np.maximum(1.0 - (V * V).sum(axis=0), 1e-12)  # in units of s2
+        sd = math.sqrt(s2)
+        chosen: list[int] = []
+        for _ in range(min(n, len(C))):
+            score = ndtr(-mean / (sd * np.sqrt(var)))
+            score[chosen] = -1.0
+            j = len(C) - 1 if first is not None and not chosen else int(np.argmax(score))
+            chosen.append(j)
+            # kriging believer: the point is told as predicted; the variance around it shrinks
+            diff = Cs - Cs[j]
+            cov = np.exp(-0.5 * (diff * diff).sum(1)) - V.T @ V[:, j]
+            row = cov / math.sqrt(max(float(var[j]), 1e-12))
+            var = np.maximum(var - row * row, 1e-12)
+            V = np.vstack([V, row[None, :]])
+        return [[float(u) for u in C[j]] for j in chosen]
+
+    def _scales(self, np: Any, linalg: Any, sq: Any, r: Any, d: int) -> Any:
+        """The length scales with the best profile likelihood among a few candidates."""
+        best: tuple[float, Any] | None = None
+        if self.scales is None or len(self.scales) != d:
+            for s in _FIRST:
+                best = self._better(np, linalg, best, np.full(d, s), sq, r)
+            factors = (0.5, 2.0)
+        else:
+            best = self._better(np, linalg, None, self.scales.copy(), sq, r)
+            factors = (0.6, 1.6)
+        for i in range(d if d > 1 else 0):
+            base = best[1]  # type: ignore[index]
+            for f in factors:
+                trial = base.copy()
+                trial[i] = min(_LONGEST, trial[i] * f)
+                best = self._better(np, linalg, best, trial, sq, r)
+        return best[1]  # type: ignore[index]
+
+    @staticmethod
+    def _better(np: Any, linalg: Any, best: tuple[float, Any] | None, scales: Any, sq: Any, r: Any) -> tuple[float, Any]:
+        n = len(r)
+        R = np.exp(-0.5 * (sq / (scales * scales)).sum(axis=2)) + _NUGGET * np.eye(n)
+        try:
+            L = np.linalg.cholesky(R)
+        except np.linalg.LinAlgError:
+            return best if best is not None else (-math.inf, scales)
+        a = linalg.solve_triangular(L, r, lower=True, check_finite=False)
+        ll = -0.5 * n * math.log(max(float(a @ a) / n, 1e-300)) - float(np.log(np.diag(L)).sum())
+        if best is None or ll > best[0] + 1e-9:
+            return (ll, scales)
+        return best
+
+    @staticmethod
+    def _factor(np: Any, sq: Any, scales: Any) -> Any:
+        R = np.exp(-0.5 * (sq / (scales * scales)).sum(axis=2))
+        n = len(R)
+        for nugget in (_NUGGET, 1e-4, 1e-2, 1.0):
+            try:
+                return np.linalg.cholesky(R + nugget * np.eye(n))
+            except np.linalg.LinAlgError:
+                continue
+        return np.eye(n)  # not reached: R + I is positive definite
+
+
+def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng: Any) -> Any:
+    """The minimum of a quadratic model of the objective fitted to the best runs (*told*: continuous unit
+    points and objectives), as lq-CMA-ES does: a full quadratic once there are (d + 1)(d + 2)/2 + 2
+    runs, one without cross terms from 2 d + 3; None with fewer. Searched over points around the best
+    run and uniform ones."""
+    import numpy as np
+
+    full = (d + 1) * (d + 2) // 2
+    diagonal = 2 * d + 1
+    if len(told) >= full + 2:
+        terms = full
+    elif len(told) >= diagonal + 2:
+        terms = diagonal
+    else:
+        return None
+    ranked = sorted(told, key=lambda p: p[1])
+    best = ranked[: max(terms + 2, min(len(ranked), 3 * terms))]
+    X = np.array([x for x, _ in best])
+    Y = np.array([y for _, y in best])
+
+    def features(P: Any) -> Any:
+        cols = [np.ones(len(P))] + [P[:, i] for i in range(d)]
+        if terms == full:
+            cols += [P[:, i] * P[:, j] for i in range(d) for j in range(i, d)]
+        else:
+            cols += [P[:, i] ** 2 for i in range(d)]
+        return np.stack(cols, axis=1)
+
+    coef = np.linalg.lstsq(features(X), Y, rcond=None)[0]
+    around = np.clip(X[0] + rng.normal(0.0, 0.1, size=(512, d)), 0.0, 1.0)
+    candidates = np.vstack([around, rng.random((512, d))])
+    values = features(candidates) @ coef
+    point = candidates[int(np.argmin(values))]
+    return np.clip(point, 0.0, 1.0)

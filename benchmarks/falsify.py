@@ -15,7 +15,7 @@ when the stored file is missing) and stored beside the case
 failing, in sweep order): the failing share *p* of the box, uniform random's
 expected median runs to a first failure (ln 2 / -ln(1 - p)) and the grid's
 first failure in the sweep's order. The built-in cases' criterion has an
-equation (:func:`_island`); where the real-run grid is coarser than the
+equation (:func:`island_margin`); where the real-run grid is coarser than the
 declared resolution, *p* and the grid's first failure are counted on the grid
 *at* the declared resolution from the equation (40,401 and 1,632,240,801
 points), after checking that the equation gives every stored real run's
@@ -67,7 +67,7 @@ from btgen_pytrees.falsify.sampler import available  # noqa: E402
 from btgen_pytrees.sweep.jobs import RunOptions  # noqa: E402
 from btgen_pytrees.sweep import load_sweep  # noqa: E402
 
-__all__ = ["main", "CASES", "truth", "search_case", "GOALS"]
+__all__ = ["main", "CASES", "truth", "declared_truth", "island_margin", "case_path", "search_case", "GOALS"]
 
 ROOT = Path(__file__).resolve().parent
 CASES = ("island_2d", "island_4d", "cut_in_3d")
@@ -206,7 +206,7 @@ def declared_truth(name: str, t: dict[str, Any]) -> dict[str, Any]:
     import numpy as np
 
     names, axes = list(t["axes"]), list(t["axes"].values())
-    wrong = [p for flat, p in enumerate(itertools.product(*axes)) if (_island(name, dict(zip(names, p))) < 0) != (t["bits"][flat] == "1")]
+    wrong = [p for flat, p in enumerate(itertools.product(*axes)) if (island_margin(name, dict(zip(names, p))) < 0) != (t["bits"][flat] == "1")]
     assert not wrong, f"{name}: the equation disagrees with the real runs at {wrong[:3]}"
     ax = {d.name: _declared_axis(d) for d in space.dimensions}
     if name == "island_2d":
@@ -235,7 +235,7 @@ def declared_truth(name: str, t: dict[str, Any]) -> dict[str, Any]:
 # -- boundary distance ---------------------------------------------------------------------------------
 
 
-def _island(name: str, p: dict[str, float]) -> float:
+def island_margin(name: str, p: dict[str, float]) -> float:
     """The built-in cases' criterion at 3 s, from its equation (> 0 passes)."""
     if name == "island_2d":
         return (p["a"] - 6) ** 2 / 4 + (p["b"] - 2.5) ** 2 - 0.08
@@ -258,7 +258,7 @@ def _distance(name: str, search: Search, boundary: Any) -> float:
         a, b = dict(mid), dict(mid)
         a[along] += k * step
         b[along] += (k + 1) * step
-        if (_island(name, a) > 0) != (_island(name, b) > 0):
+        if (island_margin(name, a) > 0) != (island_margin(name, b) > 0):
             best = min(best, abs(k + 0.5) * step)
     return best / d.resolution
 

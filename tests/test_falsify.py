@@ -385,6 +385,35 @@ def test_the_benchmark_runs() -> None:
     assert row["boundary_max"] <= 1.0  # within the declared resolution of the ellipse
 
 
+
+def test_the_benchmark_counts_the_failing_share_at_the_declared_resolution() -> None:
+    """benchmarks/falsify.py's truth for the built-in cases: the equation agrees with every stored real
+    run, and its count on the declared grid is the point-by-point one (island_2d), its first failure
+    the first failing point in sweep order (island_4d)."""
+    sys.path.insert(0, str(ROOT))
+    from benchmarks import falsify as bench
+    from btgen_pytrees.falsify import Space
+    from btgen_pytrees.sweep import load_sweep
+
+    two = bench.declared_truth("island_2d", bench.truth("island_2d"))
+    a = [i * 0.05 for i in range(201)]
+    b = [j * 0.025 for j in range(201)]
+    flags = [bench.island_margin("island_2d", {"a": x, "b": y}) < 0 for x in a for y in b]
+    assert two["points"] == 40401 and two["share"] == pytest.approx(sum(flags) / 40401) and two["first"] == flags.index(True) + 1
+
+    four = bench.declared_truth("island_4d", bench.truth("island_4d"))
+    assert four["points"] == 201**4 and 0.009 < four["share"] < 0.011
+    dims = Space.of(load_sweep(str(bench.case_path("island_4d")), check_all=False, max_variations=10**18).variations).dimensions
+
+    def point(flat: int) -> dict[str, float]:
+        values = {}
+        for d in reversed(dims):
+            flat, i = divmod(flat, 201)
+            values[d.name] = d.low + i * d.resolution
+        return values
+
+    assert bench.island_margin("island_4d", point(four["first"] - 1)) < 0 <= bench.island_margin("island_4d", point(four["first"] - 2))
+
 # -- Ctrl-C ------------------------------------------------------------------------------------------
 
 

@@ -225,6 +225,7 @@ def test_the_gp_batch_goes_where_failing_is_likely_and_spreads() -> None:
     assert min(gaps) > 0.01
     first = [0.9, 0.1]
     assert Model(np.random.default_rng(1)).propose(X, y, 3, first=first)[0] == first
+    assert len({tuple(p) for p in Model(np.random.default_rng(1)).propose(X, y, 300)}) == 300  # a batch larger than the candidates
 
 
 def test_the_gp_finds_the_island_in_its_second_batch() -> None:

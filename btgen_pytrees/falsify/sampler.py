@@ -165,9 +165,10 @@ class Sampler:
                     else:
                         self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "gp":
-                    if not self._asked:
+                    if not self._asked or not self._queue:  # a batch's points at once (the quadratic's first)
                         told = [(self._continuous(x), y) for x, y in zip(self.xs, self.ys) if y is not None]
-                        self._queue = self._model.propose([x for x, _ in told], [y for _, y in told], n, first=self._model_point())
+                        self._queue = self._model.propose([x for x, _ in told], [y for _, y in told], n - len(points),
+                                                          first=None if self._asked else self._model_point())  # fmt: skip
                     x = self._queue.pop(0)
                     self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "cmaes":

@@ -82,12 +82,13 @@ class Model:
         s2 = max(float(a @ a) / len(r), 1e-300)
         alpha = inverse.T @ a
         # candidates: uniform, and around the best runs at several distances
-        m_local = CANDIDATES // 2
+        m = max(CANDIDATES, 2 * n)
+        m_local = m // 2
         ranked = np.argsort(ya, kind="stable")[:4]
         centres = Xa[ranked[np.arange(m_local) % len(ranked)]]
         spread = np.array([0.02, 0.05, 0.1, 0.2])[np.arange(m_local) % 4][:, None]
         local = np.clip(centres + rng.normal(0.0, 1.0, size=(m_local, d)) * spread, 0.0, 1.0)
-        C = np.vstack([rng.random((CANDIDATES - m_local, d)), local] + ([np.asarray(first, dtype=float)[None, :]] if first is not None else []))
+        C = np.vstack([rng.random((m - m_local, d)), local] + ([np.asarray(first, dtype=float)[None, :]] if first is not None else []))
         Xs, Cs = Xa / self.scales, C / self.scales
         diff = Xs[:, None, :] - Cs[None, :, :]
         k = np.exp(-0.5 * (diff * diff).sum(axis=2))  # n x m
@@ -104,9 +105,10 @@ class Model:
             # kriging believer: the point is told as predicted; the variance around it shrinks
             diff = Cs - Cs[j]
             cov = np.exp(-0.5 * (diff * diff).sum(1)) - V.T @ V[:, j]
-            row = cov / math.sqrt(max(float(var[j]), 1e-12))
-            var = np.maximum(var - row * row, 1e-12)
-            V = np.vstack([V, row[None, :]])
+            if var[j] > 1e-9:  # a point the runs already pin down teaches nothing (and would divide by ~0)
+                row = cov / math.sqrt(float(var[j]))
+                var = np.maximum(var - row * row, 1e-12)
+                V = np.vstack([V, row[None, :]])
         return [[float(u) for u in C[j]] for j in chosen]
 
     def _scales(self, np: Any, linalg: Any, sq: Any, r: Any, d: int) -> Any:

@@ -203,6 +203,7 @@ def test_auto_is_the_gp_on_a_continuous_box_and_tpe_with_a_list(tmp_path: pathli
     assert json.loads(report.read_text())["method"] == "tpe"
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # no overflow or NaN in the model's arithmetic
 def test_the_gp_batch_goes_where_failing_is_likely_and_spreads() -> None:
     """The model's batch: its first point near the bowl's bottom (where the objective goes below 0), the
     others distinct and spread (kriging believer), the same for the same generator."""

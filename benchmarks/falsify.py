@@ -59,7 +59,7 @@ if __package__ in (None, ""):  # run as a file
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from btgen_pytrees.leaves import default_registry  # noqa: E402
-from btgen_pytrees.loader import validate  # noqa: E402
+from btgen_pytrees.load import validate  # noqa: E402
 from btgen_pytrees.falsify import Search, Settings, Space  # noqa: E402
 from btgen_pytrees.falsify.jobs import timed  # noqa: E402
 from btgen_pytrees.falsify.margins import groups_of, row_margins  # noqa: E402

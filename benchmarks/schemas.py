@@ -31,7 +31,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 import jsonschema
 
-from btgen_pytrees import loader
+from btgen_pytrees.load import case_validator, schema as case_schema
 from btgen_pytrees.leaves import default_registry
 
 from . import timelines
@@ -64,7 +64,7 @@ def _loader_validator() -> Any:
     Read defensively: the loader may change how it builds its validator (it did:
     ``$ref``s inlined), and the baseline must follow it.
     """
-    make = getattr(loader, "case_validator", None)
+    make = case_validator
     try:
         return make() if callable(make) else None
     except Exception:
@@ -149,7 +149,7 @@ def measure_schemas(n: int, repeats: int, emit: Callable[[dict[str, Any]], None]
         if leaf is not None and leaf.params_schema is not None and entry["action"] not in per_action:
             per_action[entry["action"]] = _candidates(leaf.params_schema, leaf.params_validator)
     broken = broken_documents(document)
-    for name, check in _candidates(loader.schema(), _loader_validator()).items():
+    for name, check in _candidates(case_schema(), _loader_validator()).items():
         emit({"stage": name})
         if isinstance(check, str):
             emit({"row": {"candidate": name, "unavailable": check}})

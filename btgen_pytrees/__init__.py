@@ -3,7 +3,7 @@
 The pipeline, one module (or package) per step, each depending only on the
 ones before it:
 
-load/validate (:mod:`.loader`) → timeline graph (:mod:`.timeline`) → construct
+load/validate (:mod:`.load`) → timeline graph (:mod:`.timeline`) → construct
 (:mod:`.construct`: Algorithm 1, Algorithm 2, full tree) → leaves
 (:mod:`.leaves`) → render (:mod:`.render`) / run (:mod:`.run`) → CLI (:mod:`.cli`).
 
@@ -24,7 +24,7 @@ if _sys.stdout is None:  # pragma: no cover - closed stdout (">&-", pythonw): py
 
 from .construct import generate  # noqa: E402
 from .errors import InvalidTestCase, Problem  # noqa: E402
-from .loader import load  # noqa: E402
+from .load import load  # noqa: E402
 from .timeline import timeline  # noqa: E402
 
 __version__ = "0.1.0"

@@ -20,9 +20,9 @@ from typing import Any, Iterable, Sequence
 from .construct import generate
 from .errors import ExitCode, InvalidTestCase, plural
 from .leaves import default_registry
-from .loader import MAX_WORK, check_work, load, load_json, parse_json, validate
+from .load import MAX_WORK, check_work, load, load_json, parse_json, validate
 from .output import report_outputs
-from .overlap import warning_lines
+from .load.warnings import warning_lines
 from .parallel import Outcome
 from .render import render
 from .run import run
@@ -31,7 +31,7 @@ from .sweep import MAX_VARIATIONS, has_variations, load_sweep
 from .sweep.runs import resolved_system, sweep_report
 from .sweep.jobs import RunOptions, job_chunk, registry_for
 from .sweep.plot import map_bytes
-from .sweep.variations import Variations
+from .load.variations import Variations
 from .contracts.system import SystemSpec
 from .timeline import timeline
 
@@ -142,7 +142,7 @@ def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | N
     """Run one case; outputs: ``<target>.report.json``, ``<target>.junit.xml`` and, with *plot*
     (``svg``/``png``/``html``), ``<target>.<plot>``. With *junit* the JUnit text also comes back
     (``Outcome.junit``) for one batch-wide file. *system* (a ``SystemSpec``) replaces the case's
-    (``run --system``). *max_work* is the work budget (default :data:`~.loader.MAX_WORK`)."""
+    (``run --system``). *max_work* is the work budget (default :data:`~.load.MAX_WORK`)."""
     registry = default_registry(plugins)
     case = load(path, registry=registry, system=system)
     outcome = run_case(path, case, registry, target, plot, junit, max_work, require_complete)

@@ -35,13 +35,14 @@ from .construct import generate
 from .errors import MAX_PROBLEMS, InvalidTestCase, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
 from .leaves.plugins import is_path
-from .loader import check_work, load_json, validate
+from .load import check_work, load_json, validate
 from .model import TestCase
 from .output import commit
 from .run import Report, run, run_tree
 from .run.plot import PlotUnavailable, plot_bytes, require_matplotlib
 from .run.replay import replay_html
-from .sweep.case import has_variations, load_sweep
+from .load.sweep import load_sweep
+from .load.template import has_variations
 from .sweep.overrides import MAX_NAME, choose, given_values
 from .systems import System, SystemSpec
 from .systems.sumo import libsumo_installed

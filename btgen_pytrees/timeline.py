@@ -9,7 +9,7 @@ rows and columns through the graph's sparse adjacency (``graph.succ`` /
 ``graph.pred``), never through a dense matrix; :func:`adjacency_matrix` exists
 for display only.
 
->>> from btgen_pytrees.loader import load
+>>> from btgen_pytrees import load
 >>> case = load({"name": "t", "execute": [
 ...     {"id": "A", "kind": "behavior", "action": "hold", "params": {"duration": 1}},
 ...     {"id": "B", "kind": "behavior", "action": "hold", "params": {"duration": 1}, "after": ["A"]}]})

@@ -17,7 +17,7 @@ import btgen_pytrees
 from btgen_pytrees.errors import MAX_LINE
 from btgen_pytrees.contracts.environment import Environment
 from btgen_pytrees.leaves.oracles import MAX_SAMPLES
-from btgen_pytrees.loader import MAX_SUGGESTIONS, MAX_WORK, work
+from btgen_pytrees.load import MAX_SUGGESTIONS, MAX_WORK, work
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 

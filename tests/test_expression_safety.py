@@ -260,7 +260,7 @@ def test_longest_signal_product_is_bounded() -> None:
 
 def test_largest_integer_signal_the_loader_accepts() -> None:
     """Numbers are bounded by MAX_MAGNITUDE (1e300, issue 13: 2**1023 overflowed a ramp), integers exactly."""
-    from btgen_pytrees.loader import MAX_MAGNITUDE
+    from btgen_pytrees.load import MAX_MAGNITUDE
 
     ok = case(entry("A"), signals={"s": int(MAX_MAGNITUDE)})
     btgen_pytrees.load(ok)

@@ -37,7 +37,7 @@ fixes the seed of a long run; ``--hypothesis-show-statistics`` shows how many
 examples ended in which exit codes.
 
 The rest of the file: regressions for what the fuzzer found, bounded reading of
-large files (:data:`btgen_pytrees.loader.MAX_FILE_BYTES`), and fixes outside
+large files (:data:`btgen_pytrees.load.MAX_FILE_BYTES`), and fixes outside
 the loader.
 """
 
@@ -65,7 +65,7 @@ from hypothesis import strategies as st
 import btgen_pytrees
 from btgen_pytrees import InvalidTestCase
 from btgen_pytrees.cli import main
-from btgen_pytrees.loader import MAX_FILE_BYTES, MAX_NESTING, load_json
+from btgen_pytrees.load import MAX_FILE_BYTES, MAX_NESTING, load_json
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 

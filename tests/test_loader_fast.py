@@ -7,7 +7,7 @@ from helpers import case, entry
 
 import btgen_pytrees
 from btgen_pytrees.errors import InvalidTestCase
-from btgen_pytrees.loader import parse_json
+from btgen_pytrees.load import parse_json
 
 
 def _problems(data: dict) -> list[str]:

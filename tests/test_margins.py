@@ -26,7 +26,7 @@ import btgen_pytrees
 from btgen_pytrees.expressions import ExpressionError, conjunction, disjunction, parse
 from btgen_pytrees.leaves import default_registry
 from btgen_pytrees.run import run
-from btgen_pytrees.sweep.variations import format_value
+from btgen_pytrees.load.variations import format_value
 from btgen_pytrees.systems import SystemInfo, SystemSpec
 
 from helpers import case, crit, entry, run_case

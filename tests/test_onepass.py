@@ -25,10 +25,11 @@ from hypothesis import strategies as st
 from test_fuzz import mutants
 
 import btgen_pytrees
-from btgen_pytrees import onepass
+from btgen_pytrees.load import onepass
 from btgen_pytrees.errors import InvalidTestCase
 from btgen_pytrees.leaves import default_registry
-from btgen_pytrees.loader import _validate, parse_json
+from btgen_pytrees.load import parse_json
+from btgen_pytrees.load.case import _validate
 from btgen_pytrees.model import TestCase
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent

@@ -82,7 +82,7 @@ def test_a_long_chain_of_writers_is_checked_in_linear_time() -> None:
 
 
 def test_the_check_gives_up_with_a_warning_when_its_budget_is_spent(monkeypatch: Any) -> None:
-    from btgen_pytrees import overlap
+    from btgen_pytrees.load import warnings as overlap
 
     monkeypatch.setattr(overlap, "BUDGET_PER_ENTRY", 0)
     monkeypatch.setattr(overlap, "BUDGET_BASE", 0)

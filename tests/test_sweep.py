@@ -13,8 +13,9 @@ from helpers import case, crit, entry, run_case
 
 import btgen_pytrees
 from btgen_pytrees import InvalidTestCase, load
-from btgen_pytrees.sweep import Variations, label, load_sweep, variations
-from btgen_pytrees.sweep.check import count_problem
+from btgen_pytrees.load import variations
+from btgen_pytrees.sweep import Variations, label, load_sweep
+from btgen_pytrees.load.template import count_problem
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FIG1_SWEEP = ROOT / "examples" / "fig1_sweep.json"

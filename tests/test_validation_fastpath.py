@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from test_fuzz import mutants
 
 from btgen_pytrees.leaves import default_registry
-from btgen_pytrees.loader import case_validator, parse_json
+from btgen_pytrees.load import case_validator, parse_json
 from btgen_pytrees.errors import InvalidTestCase
 from btgen_pytrees.validation import SchemaValidator
 
@@ -70,7 +70,7 @@ def test_the_test_case_schema_is_valid() -> None:
     # the loader builds its validator with checked=True (no metaschema check at run time): it is checked here
     import jsonschema
 
-    from btgen_pytrees.loader import inline_refs, schema
+    from btgen_pytrees.load import inline_refs, schema
 
     jsonschema.Draft202012Validator.check_schema(schema())
     jsonschema.Draft202012Validator.check_schema(inline_refs(schema(), schema()))

@@ -24,12 +24,13 @@ from ..falsify.report import report_data, table, to_json
 from ..falsify.sampler import HINT, METHODS, available
 from ..falsify.search import Search
 from ..falsify.space import Space
-from ..loader import validate
+from ..load import validate
 from ..output import check_target, commit, emit
 from ..parallel import Interrupted, progress_stream
 from ..run.plot import plot_format
-from ..sweep.case import Sweep, load_sweep
-from ..sweep.variations import format_value
+from ..load.sweep import load_sweep
+from ..load.template import Sweep
+from ..load.variations import format_value
 from .options import Parents, registry
 from .sweep import add_executor_options, make_executor, run_options
 

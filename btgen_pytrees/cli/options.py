@@ -13,7 +13,7 @@ from typing import Any, NoReturn
 
 from ..errors import ExitCode, UsageError
 from ..leaves import Registry, default_registry
-from ..loader import load_json
+from ..load import load_json
 from ..sweep.overrides import choose, given_values, parse_set, read_params
 from ..systems import SystemSpec
 from .terminal import err

@@ -14,10 +14,10 @@ from .. import batch
 from ..construct import generate
 from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
 from ..leaves import Registry, default_registry
-from ..loader import MAX_FILE_BYTES, MAX_WORK, check_work, load_json, parse_json, validate
+from ..load import MAX_FILE_BYTES, MAX_WORK, check_work, load_json, parse_json, validate
 from ..model import TestCase
 from ..output import check_distinct, commit, emit, is_direct, on_stdout, report_outputs
-from ..overlap import warning_lines
+from ..load.warnings import warning_lines
 from ..parallel import Outcome, merge_junit
 from ..progress import terminal_progress
 from ..run import run

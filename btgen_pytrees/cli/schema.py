@@ -7,7 +7,7 @@ import json
 from typing import Any
 
 from ..errors import ExitCode
-from ..loader import schema_for
+from ..load import schema_for
 from ..output import emit
 from .options import Parents, registry
 

@@ -10,9 +10,9 @@ from typing import Any
 from ..batch import job_show
 from ..construct import generate
 from ..errors import ExitCode, UsageError
-from ..loader import load, validate
+from ..load import load, validate
 from ..output import commit, emit, is_direct, same_file, stdout_isatty
-from ..overlap import warning_lines
+from ..load.warnings import warning_lines
 from ..parallel import Outcome
 from ..render import FORMATS, JSON_INDENT_LIMIT, render_chunks
 from ..render.dot import png_depth

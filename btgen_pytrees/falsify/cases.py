@@ -15,11 +15,11 @@ from typing import Any, Callable, Mapping
 from ..construct import generate
 from ..errors import InvalidTestCase, Problem, UsageError
 from ..leaves import Registry
-from ..loader import validate
+from ..load import validate
 from ..render import GraphvizMissing
 from ..run import run
 from ..run.replay import replay_html
-from ..sweep.case import Sweep, Variation
+from ..load.template import Sweep, Variation
 from ..sweep.jobs import RunOptions, VariationOutcome
 from ..sweep.runs import file_name, run_variations
 from .jobs import job_probe

@@ -19,7 +19,7 @@ import json
 import math
 from typing import Any, Mapping, Sequence
 
-from ..sweep.variations import format_value, label
+from ..load.variations import format_value, label
 from .search import Cluster, Run, Search
 from .space import Space
 

@@ -34,7 +34,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Generator, Mapping, Sequence
 
-from ..sweep.variations import Value
+from ..load.variations import Value
 from .margins import combine
 from .sampler import Sampler, resolve_method
 from .space import Space

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from statistics import NormalDist
 from typing import Any, Mapping, Sequence
 
-from ..sweep.variations import Value, Variations
+from ..load.variations import Value, Variations
 
 __all__ = ["Dimension", "Space", "EDGE"]
 

@@ -96,7 +96,7 @@ def run_tree(
             instead (default: the case's ``require_complete``)
         progress: called after every tick with the number of ticks done and the
             run time (``run``'s terminal line, :mod:`btgen_pytrees.progress`)
-        max_work: the work budget (:data:`~btgen_pytrees.loader.MAX_WORK`; ``None``: none).
+        max_work: the work budget (:data:`~btgen_pytrees.load.MAX_WORK`; ``None``: none).
             Each tick charges the tree's size (entries + criteria + 10); a run whose
             next tick would exceed the budget ends there with verdict ``error``,
             keeping what it found so far

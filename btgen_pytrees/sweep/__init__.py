@@ -1,13 +1,16 @@
 """Sweeps: one parameterised test case, many concrete runs, a verdict map.
 
-* :mod:`.variations` - the ``variations`` block: lists, ranges, random draws; count and order
-* :mod:`.parameters` - ``$name`` references and their substitution
-* :mod:`.check` - checks of the ``parameters``/``variations`` blocks
-* :mod:`.case` - :class:`Sweep`: load, check every variation, iterate
+A sweep is loaded and checked by :mod:`btgen_pytrees.load` (the template, the blocks and every
+variation, :func:`~btgen_pytrees.load.sweep.load_sweep`); this package runs it:
+
+* :mod:`.jobs` - a worker's job for one variation
+* :mod:`.command` - the commands ``run`` and ``expand`` of a sweep
+* :mod:`.report`, :mod:`.plot` - the result and the verdict map
 """
 
-from .case import MAX_VARIATIONS, Sweep, Variation, has_variations, is_parameterised, load_sweep
-from .variations import Variations, label
+from ..load.sweep import load_sweep
+from ..load.template import MAX_VARIATIONS, Sweep, Variation, has_variations, is_parameterised
+from ..load.variations import Variations, label
 
 __all__ = ["MAX_VARIATIONS", "Sweep", "Variation", "Variations", "has_variations", "is_parameterised", "label",
            "load_sweep"]

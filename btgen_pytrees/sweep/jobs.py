@@ -23,7 +23,7 @@ from typing import Any, Mapping, Sequence
 from ..errors import ExitCode
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
-from ..loader import MAX_WORK, check_work, validate
+from ..load import MAX_WORK, check_work, validate
 from ..parallel import Outcome, guard
 from ..parallel.shipping import local
 from ..run import run
@@ -39,7 +39,7 @@ class RunOptions:
 
     Attributes:
         plugins: ``--plugin`` modules and files (files as absolute paths on the client)
-        max_work: the work budget (None: :data:`~btgen_pytrees.loader.MAX_WORK`)
+        max_work: the work budget (None: :data:`~btgen_pytrees.load.MAX_WORK`)
         require_complete: ``--require-complete``
         files: the digest of the :class:`~.shipping.Files` shipped to the workers (Dask), None when
             the runs read the client's own disk (the local pool)

@@ -36,10 +36,10 @@ from typing import Any, Mapping, Sequence
 
 from ..errors import InvalidTestCase, Problem, UserError, shorten
 from ..leaves import Registry
-from ..loader import load_json
+from ..load.read import load_json
 from ..text import closest
-from .case import load_sweep
-from .variations import Value, format_value, label
+from ..load.sweep import load_sweep
+from ..load.variations import Value, format_value, label
 
 __all__ = ["Given", "Chosen", "ParameterError", "parse_set", "given_values", "read_params", "choose"]
 

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 from ..output import write_file
 from ..run.plot import figure_bytes, plot_format
 from .report import VERDICTS, SweepReport
-from .variations import format_value
+from ..load.variations import format_value
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure

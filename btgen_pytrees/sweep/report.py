@@ -20,7 +20,7 @@ from typing import Any, Mapping, Sequence
 
 from ..errors import plural
 from ..run.report import margin_text
-from .variations import Value, format_value
+from ..load.variations import Value, format_value
 
 __all__ = ["SweepReport", "VERDICTS", "worst_first"]
 

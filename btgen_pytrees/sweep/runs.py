@@ -15,11 +15,11 @@ from typing import Any, Callable, Sequence
 from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
 from ..errors import ExitCode
-from ..loader import system_spec
+from ..load import system_spec
 from ..parallel import Interrupted, Outcome, process
 from ..parallel.shipping import Files, read_files
 from ..contracts.system import SystemSpec
-from .case import Sweep, Variation
+from ..load.template import Sweep, Variation
 from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk
 from .report import SweepReport
 

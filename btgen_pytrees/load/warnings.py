@@ -38,10 +38,10 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from .errors import MAX_LINE, MAX_PROBLEMS, Problem, printable
-from .leaves import Registry
-from .model import Entry, TestCase
-from .order import positions
+from ..errors import MAX_LINE, MAX_PROBLEMS, Problem, printable
+from ..leaves import Registry
+from ..model import Entry, TestCase
+from ..order import positions
 
 __all__ = ["overlapping_writes", "warning_lines", "NEAREST"]
 

@@ -1,31 +1,41 @@
-"""Checks of the ``parameters`` and ``variations`` blocks, before anything is substituted.
+"""A parameterised test case: the ``parameters`` and ``variations`` blocks checked, the template, its variations.
 
-Like the loader, these come in two stages: the blocks' *shape* (the
-``parameters``/``variations`` parts of the test-case schema) and then their
+The blocks are checked before anything is substituted, like a test case in two stages: their
+*shape* (the ``parameters``/``variations`` parts of the test-case schema) and then their
 *meaning* - a varied parameter is declared and used, list values are unique
 and of the default's type (boolean or number), a range runs upwards, a random
 draw has ``samples``, the count is within the limit. Problems carry the JSON
 path and the cause ``parameter`` (``limit`` for the count).
+
+:func:`nominal` is what :func:`btgen_pytrees.load` does with a file that has
+``parameters`` or ``variations``: check both blocks and every ``$name``,
+substitute the *defaults*, and return a concrete document for the usual
+checks. So ``show``/``validate``/``run`` of such a file with its defaults
+behave as for any case, and the defaults must themselves make a valid case.
+:func:`btgen_pytrees.load.sweep.load_sweep` checks every variation too.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, Iterator, Mapping
 
-from ..errors import PathPart, Problem
+from ..errors import InvalidTestCase, PathPart, Problem, by_place
 from ..text import did_you_mean, shorten
 from ..validation import SchemaValidator
-from .variations import BLOCK_KEYS, RANGE_EPSILON, Variations, format_value
+from .parameters import REFERENCE, find_sites, substitute
+from .schema import inline_refs, schema
+from .variations import BLOCK_KEYS, RANGE_EPSILON, Point, Value, Variations, format_value, label
 
-__all__ = ["shape_problems", "meaning_problems", "count_problem", "collision_problems", "axis_size"]
+__all__ = ["shape_problems", "meaning_problems", "count_problem", "collision_problems", "axis_size",
+           "MAX_VARIATIONS", "Sweep", "Variation", "is_parameterised", "has_variations", "prepare", "nominal"]
+
 
 
 @lru_cache(maxsize=1)
 def _validator() -> SchemaValidator:
-    from ..loader import inline_refs, schema
-
     root = schema()
     blocks = {"type": "object", "properties": {k: root["properties"][k] for k in ("parameters", "variations", "search")}}
     return SchemaValidator(inline_refs(blocks, root))
@@ -142,3 +152,104 @@ def collision_problems(doc: Mapping[str, Any]) -> Iterator[Problem]:
                               "parameter")  # fmt: skip
                 break
             previous = value
+
+
+MAX_VARIATIONS = 10_000
+"""Most variations one sweep may have unless raised (``--max-variations``); checked before any run."""
+
+
+def is_parameterised(data: Any) -> bool:
+    """Whether *data* needs this module: it has ``parameters`` or ``variations``."""
+    return type(data) is dict and ("parameters" in data or "variations" in data)
+
+
+def has_variations(data: Any) -> bool:
+    """Whether *data* is a sweep (a ``variations`` block), i.e. ``run`` runs many cases."""
+    return type(data) is dict and "variations" in data
+
+
+@dataclass(frozen=True)
+class Variation:
+    """One concrete case of a sweep.
+
+    Attributes:
+        index: position in the sweep's order (0-based)
+        point: the varied parameters' values, as ``((name, value), ...)``
+        values: every parameter's value (defaults overridden by *point*)
+        document: the concrete test case (see :meth:`Sweep.document`)
+    """
+
+    index: int
+    point: Point
+    values: Mapping[str, Value]
+    document: Mapping[str, Any]
+
+    @property
+    def label(self) -> str:
+        """``gap=5,speed=10``."""
+        return label(self.point)
+
+
+class Sweep:
+    """A checked parameterised case; iterating gives its :class:`Variation` objects in order."""
+
+    def __init__(self, data: Mapping[str, Any], source: str):
+        self.source = source
+        self.name: str = data["name"] if isinstance(data.get("name"), str) else ""
+        self.defaults: dict[str, Value] = dict(data.get("parameters", {}))
+        self.variations = Variations.parse(data.get("variations"))
+        self.template = {k: v for k, v in data.items() if k not in ("variations", "search")}
+        self.search: Mapping[str, Any] | None = data.get("search")
+        """The ``search`` block (``falsify``'s settings), kept out of every variation's document."""
+        # a case without parameters keeps every '$' as written, as it always has
+        self.sites, self.problems = find_sites(self.template, self.defaults) if is_parameterised(data) else ([], [])
+
+    @property
+    def count(self) -> int:
+        return self.variations.count
+
+    @property
+    def varied(self) -> tuple[str, ...]:
+        """The varied parameters, in label order (``sample`` included for random sweeps)."""
+        grid = tuple(a.name for a in self.variations.grid)
+        randoms = tuple(a.name for a in self.variations.randoms)
+        return grid + (("sample",) + randoms if randoms else ())
+
+    def document(self, values: Mapping[str, Value]) -> dict[str, Any]:
+        """The concrete case for *values*: no ``$name`` left, no ``parameters``/``variations`` block.
+
+        Without ``parameters`` the result is a plain case, so a literal ``$`` (written ``$$``)
+        stays literal when it is loaded again.
+        """
+        doc = substitute(self.template, self.sites, values)
+        doc.pop("parameters", None)
+        return doc
+
+    def __iter__(self) -> Iterator[Variation]:
+        for index, point in enumerate(self.variations.points()):
+            values = {**self.defaults, **{k: v for k, v in point if k != "sample"}}
+            yield Variation(index, point, values, self.document(values))
+
+
+def prepare(data: Mapping[str, Any], source: str) -> Sweep:
+    problems = shape_problems(data)
+    if problems:
+        raise InvalidTestCase(problems, source)
+    sweep = Sweep(data, source)
+    used = {name for site in sweep.sites for name in _names(site.text)}
+    problems = sorted(set(sweep.problems) | set(meaning_problems(data, used)), key=by_place)
+    if problems:
+        raise InvalidTestCase(problems, source)
+    return sweep
+
+
+def _names(text: str) -> set[str]:
+    return {m.group(1) for m in REFERENCE.finditer(text)}
+
+
+def nominal(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """The concrete document for the defaults; raises :class:`InvalidTestCase` for the blocks' problems."""
+    sweep = prepare(data, source)
+    return sweep.document(sweep.defaults)
+
+

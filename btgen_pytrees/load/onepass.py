@@ -53,25 +53,18 @@ from dataclasses import replace
 from functools import lru_cache
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
-from .leaves import Registry
-from .contracts.registry import LeafType
-from .loader import (
-    SURROGATE,
-    Checker,
-    build_case,
-    case_validator,
-    freeze,
-    inline_refs,
-    no_duplicates,
-    reject_constant,
-    schema,
-    suspicious,
-)
-from .model import DEFAULT_JOIN, EMPTY, Criterion, Entry, TestCase
-from .order import is_acyclic
-from .contracts.system import SystemSpec
-from .systems.simulated import SIMULATED
-from .validation import SchemaValidator
+from ..leaves import Registry
+from ..contracts.registry import LeafType
+from ..model import DEFAULT_JOIN, EMPTY, Criterion, Entry, TestCase
+from ..order import is_acyclic
+from ..contracts.system import SystemSpec
+from ..systems.simulated import SIMULATED
+from ..validation import SchemaValidator
+from .context import Checker, freeze
+from .document import build_case
+from .read import no_duplicates, reject_constant
+from .schema import case_validator, inline_refs, schema
+from .values import SURROGATE, suspicious
 
 __all__ = ["from_text", "from_data"]
 

@@ -1,0 +1,410 @@
+"""What one document's checks share: the registry, the system and its signals, the known names, the problems."""
+
+from __future__ import annotations
+
+import math
+import os
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import networkx as nx
+
+from ..errors import PathPart, Problem
+from ..expressions import RESERVED, Expression, ExpressionError, parse
+from ..leaves import Registry
+from ..contracts.registry import LeafType
+from ..model import DEFAULT_JOIN, DEFAULT_TICK, DEFAULT_TIMEOUT, EMPTY, Criterion, Entry
+from ..order import is_acyclic
+from ..contracts.system import SystemInfo, SystemSpec
+from .limits import MAX_TICKS, MIN_TICK
+from .words import described, shown, suggest
+
+__all__ = ["Checker", "freeze", "system_spec", "spec_of"]
+
+class Checker:
+    """Collects meaning-level problems of one schema-valid document."""
+
+    def __init__(self, data: Mapping[str, Any], registry: Registry, source: str = "<dict>", system: SystemSpec | None = None):
+        self.data = data
+        self.registry = registry
+        self.problems: list[Problem] = []
+        self.declares_signals = "signals" in data
+        self.signals: Mapping[str, Any] = data.get("signals", {})
+        self.source = source
+        own = spec_of(data.get("system"), source)
+        if system is not None and not system.options and system.type == own.type:
+            system = SystemSpec(system.type, system.config, own.options)  # options written for this type still apply
+        self.spec = system if system is not None else own
+        self.owned: frozenset[str] = frozenset()  # signals the system owns (read-only for the test)
+        self.writers: Mapping[str, str] = {}
+        self.known: frozenset[str] = frozenset(self.signals)  # names expressions may read, when checked
+        self.system_checked = False  # the system's own checks passed: its signal list is complete
+
+    def check_system(self) -> None:
+        """The system's type, options and configuration; learn the signals it owns."""
+        spec = self.spec
+        system_type = self.registry.system(spec.type)
+        if system_type is None:
+            installed = self.registry.systems()
+            self.add(("system", "type"), f"unknown system {shown(spec.type)}{suggest(spec.type, installed)}; installed: "
+                     f"{', '.join(installed) or 'none'} (a plugin may add it: --plugin MODULE or FILE.py)", "system")  # fmt: skip
+            return
+        problems = option_problems(spec.options, system_type)
+        for index, message in problems:
+            self.add(("system", "options", index), message, "system")
+        try:
+            info = system_type.describe(spec, self.data)
+        except Exception as exc:  # noqa: BLE001 - a third-party system's bug is a problem, not a traceback
+            self.add(("system",), f"system {spec.type!r} could not check the case: {type(exc).__name__}: {exc}", "system")
+            return
+        if not isinstance(info, SystemInfo):
+            self.add(("system",), f"system {spec.type!r}: describe() returned {type(info).__name__}, not SystemInfo", "system")
+            return
+        reported = {("system", "options", index) for index, _ in problems}
+        for problem in info.problems:
+            if tuple(problem.path) not in reported:
+                self.problems.append(problem)
+        self.owned = frozenset(info.signals)
+        self.writers = dict(info.writers)
+        self.known = frozenset(self.signals) | self.owned
+        self.system_checked = not info.problems
+
+    def add(self, path: tuple[PathPart, ...], message: str, cause: str) -> None:
+        self.problems.append(Problem(path, message, cause))
+
+    def expression(self, text: str, path: tuple[PathPart, ...]) -> Expression | None:
+        try:
+            expr = parse(text)
+        except ExpressionError as exc:
+            self.add(path, f"bad expression {shown(text)}: {exc}", "expression")
+            return None
+        for name in sorted(expr.names - self.known):
+            if self._checked(name):
+                self.add(path, f"unknown signal {name!r} in {shown(text)}{suggest(name, self.known)}", "signal")
+        return expr
+
+    def _checked(self, name: str) -> bool:
+        """Whether *name* must be a known signal: all names once ``signals`` is declared;
+        dotted names always (only a system has them), unless the system's own checks failed."""
+        if "." in name:
+            return self.system_checked
+        return self.declares_signals
+
+    def signal(self, name: str, path: tuple[PathPart, ...], action: str | None = None) -> None:
+        if name in RESERVED:
+            self.add(path, f"{name!r} is a reserved word of expressions, not a signal name", "signal")
+        elif name in self.owned and not (action or "").startswith(self.spec.type + "."):
+            writer = self.writers.get(name)
+            how = f"use the action {writer!r} instead" if writer else f"use an action of the {self.spec.type!r} system to change it"
+            self.add(path, f"signal {name!r} belongs to the {self.spec.type!r} system and is read-only for the test; {how}", "signal")
+        elif name not in self.known and self._checked(name):
+            self.add(path, f"unknown signal {name!r}{suggest(name, self.known)}", "signal")
+
+    def check_signals(self) -> None:
+        for name in self.signals:
+            if name in RESERVED:
+                self.add(("signals", name), f"{name!r} is a reserved word of expressions", "signal")
+
+    def check_limits(self) -> None:
+        tick, timeout = self.data.get("tick", DEFAULT_TICK), self.data.get("timeout", DEFAULT_TIMEOUT)
+        if not (math.isfinite(tick) and math.isfinite(timeout)):
+            self.add(("timeout",) if not math.isfinite(timeout) else ("tick",), "must be a finite number", "limit")
+        elif tick < MIN_TICK:
+            self.add(("tick",), f"{tick:g} s is below the smallest tick, {MIN_TICK:g} s (the run clock counts in "
+                     "nanoseconds; a smaller tick would not advance it)", "limit")  # fmt: skip
+        elif timeout / tick > MAX_TICKS:
+            self.add(("timeout",), f"timeout/tick is {timeout / tick:.3g} ticks; the limit is {MAX_TICKS}", "limit")
+
+    def entries(self) -> list[Entry]:
+        raw_entries = self.data["execute"]
+        raw_criteria = self.data.get("oracle", {}).get("criteria", [])
+        first: dict[str, tuple[PathPart, ...]] = {}
+        for where, items in (("execute", raw_entries), ("criteria", raw_criteria)):
+            for i, item in enumerate(items):
+                path = ("execute", i, "id") if where == "execute" else ("oracle", "criteria", i, "id")
+                if item["id"] in first:
+                    self.add(path, f"duplicate id {item['id']!r} (first used at {_pointer(first[item['id']])})", "id")
+                else:
+                    first[item["id"]] = path
+        execute_ids = {e["id"] for e in raw_entries}
+        criteria_ids = {c["id"] for c in raw_criteria}
+        default_join = self.data.get("join", DEFAULT_JOIN)
+        entries = []
+        # (kind, action, params) -> the frozen params, for leaves whose check of those params was
+        # path-independent and clean: entries sharing params (most: {"duration": 0.1}) are checked
+        # once and share one read-only mapping
+        checked: dict[Any, Mapping[str, Any]] = {}
+        for i, raw in enumerate(raw_entries):
+            after = self._after(i, raw, execute_ids, criteria_ids)
+            entries.append(self.entry(i, raw, after, default_join, checked))
+        return entries
+
+    def entry(self, i: int, raw: Mapping[str, Any], after: tuple[str, ...], join: str,
+              checked: dict[Any, Mapping[str, Any]]) -> Entry:  # fmt: skip
+        """Execute entry *i* (*after* already checked): its leaf's params checked, or shared from *checked*."""
+        kind, action, params = raw["kind"], raw["action"], raw.get("params")
+        key = _params_key(kind, action, params)
+        frozen = checked.get(key) if key is not None else None
+        if frozen is not None:
+            expressions = EMPTY
+        else:
+            before = len(self.problems)
+            compiled = self._leaf(("execute", i), kind, action, params if params is not None else {})
+            frozen = freeze(params)
+            expressions = freeze(compiled)
+            if key is not None and not compiled and len(self.problems) == before and self._plain(kind, action, params):
+                checked[key] = frozen
+        return Entry(
+            id=raw["id"], kind=kind, action=action, params=frozen, after=after,
+            join=raw.get("join", join), name=raw.get("name", raw["id"]), index=i,
+            expressions=expressions,
+        )  # fmt: skip
+
+    def _plain(self, kind: str, action: str | None, params: Mapping[str, Any] | None) -> bool:
+        """Whether *params* of this leaf hold no signal name or expression (so its check is path-independent)."""
+        leaf = self.registry.get(kind, action)
+        return leaf is not None and not any(name in (params or {}) for name in (*leaf.signals, *leaf.expressions))
+
+    def _after(self, i: int, raw: Mapping[str, Any], execute_ids: set[str], criteria_ids: set[str]) -> tuple[str, ...]:
+        listed = raw.get("after")
+        if not listed:
+            return ()
+        preds = tuple(listed)
+        if raw["id"] not in preds and len(set(preds)) == len(preds) and execute_ids.issuperset(preds):
+            return preds  # the common case: every item names another execute entry, once
+        seen: dict[str, None] = {}  # ordered, O(1) membership
+        for k, pred in enumerate(preds):
+            path = ("execute", i, "after", k)
+            if pred == raw["id"]:
+                self.add(path, f"{pred!r} cannot come after itself", "graph")
+            elif pred in seen:
+                self.add(path, f"{pred!r} is listed twice", "graph")
+            elif pred not in execute_ids and pred in criteria_ids:
+                self.add(path, f"{pred!r} is an oracle criterion, not an execute entry", "graph")
+            elif pred not in execute_ids:
+                self.add(path, f"unknown id {pred!r}{suggest(pred, execute_ids)}", "graph")
+            else:
+                seen[pred] = None
+        return tuple(seen)
+
+    def params(self, leaf: LeafType, path: tuple[PathPart, ...], params: Mapping[str, Any]) -> bool:
+        """Check *params* against the leaf's own schema; whether they fit."""
+        validator = leaf.params_validator
+        if validator is None:
+            return True
+        before = len(self.problems)
+        self.problems.extend(described(validator.iter_errors(params), params, (*path, "params"), "action"))
+        return len(self.problems) == before
+
+    def leaves_alongside_shape(self) -> None:
+        """Registration and ``params`` of every entry and criterion whose own shape is right.
+
+        Runs with stage 1 when the schema found problems, so that a document needs
+        one round of corrections, not one for the shape and one for the params.
+        """
+        data = self.data
+        entries = data.get("execute")
+        for i, raw in enumerate(entries if isinstance(entries, list) else ()):
+            if not isinstance(raw, dict) or raw.get("kind") not in ("behavior", "constraint"):
+                continue
+            action, params = raw.get("action"), raw.get("params", {})
+            if isinstance(action, str) and action and isinstance(params, dict):
+                self._registered(("execute", i), raw["kind"], action, params)
+        oracle = data.get("oracle")
+        criteria = oracle.get("criteria") if isinstance(oracle, dict) else None
+        for i, raw in enumerate(criteria if isinstance(criteria, list) else ()):
+            if not isinstance(raw, dict) or raw.get("type") not in ("record", "period", "final"):
+                continue
+            action, params = raw.get("action"), raw.get("params", {})
+            if (action is None or isinstance(action, str) and action) and isinstance(params, dict):
+                self._registered(("oracle", "criteria", i), raw["type"], action, params)
+
+    def _registered(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> None:
+        leaf = self._lookup(path, kind, action)
+        if leaf is not None:
+            self.params(leaf, path, params)
+
+    def _lookup(self, path: tuple[PathPart, ...], kind: str, action: str | None) -> LeafType | None:
+        """The leaf registered for (kind, action), or None with a problem."""
+        leaf = self.registry.get(kind, action)
+        if leaf is not None:
+            return leaf
+        if action is None:
+            self.add((*path, "type"), f"no leaf is registered for {kind!r} criteria", "action")
+            return None
+        known = [a for a in self.registry.actions(kind) if self._other_system(a) is None]
+        other = {"behavior": "constraint", "constraint": "behavior"}.get(kind)
+        hint = f" ({action!r} is a {other} action)" if other and action in self.registry.actions(other) else ""
+        hint = hint or suggest(action, known)
+        listed = ", ".join(known) if known else "none"
+        self.add((*path, "action"), f"unknown {kind} action {shown(action)}{hint}; known: {listed}{self._plugin_hint(action)}", "action")
+        return None
+
+    def _leaf(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> dict[str, Expression]:
+        """Check that a leaf is registered for (kind, action) and that its params fit; parse its expressions."""
+        leaf = self.registry.get(kind, action)
+        owner = self._other_system(action)
+        if leaf is not None and owner is not None:
+            self.add((*path, "action"), f"{shown(action)} is an action of the {owner!r} system; this case's system is "
+                     f"{self.spec.type!r} (set \"system\": {{\"type\": \"{owner}\", ...}})", "action")  # fmt: skip
+            return {}
+        leaf = self._lookup(path, kind, action)
+        if leaf is None:
+            return {}
+        if not self.params(leaf, path, params):
+            return {}
+        for name in leaf.signals:
+            if isinstance(params.get(name), str):
+                self.signal(params[name], (*path, "params", name), action)
+        compiled = {}
+        for name in leaf.expressions:
+            if isinstance(params.get(name), str):
+                expr = self.expression(params[name], (*path, "params", name))
+                if expr is not None:
+                    compiled[name] = expr
+        return compiled
+
+    def _other_system(self, action: str | None) -> str | None:
+        """The registered system whose action *action* is (``sumo`` for ``sumo.speed``), if not the case's."""
+        prefix = action.partition(".")[0] if action and "." in action else None
+        if prefix is None or prefix == self.spec.type or self.registry.system(prefix) is None:
+            return None
+        return prefix
+
+    def _plugin_hint(self, action: str) -> str:
+        """Where an unknown action may come from: a system that is not installed, or a plugin."""
+        prefix = action.partition(".")[0] if "." in action else None
+        if prefix is not None and self.registry.system(prefix) is None:
+            installed = ", ".join(self.registry.systems()) or "none"
+            return f" (system {prefix!r} is not installed; installed: {installed}; a plugin may add it: --plugin MODULE or FILE.py)"
+        return " (a plugin may add it: --plugin MODULE or FILE.py)"
+
+    def criteria(self) -> list[Criterion]:
+        out = []
+        for i, raw in enumerate(self.data.get("oracle", {}).get("criteria", [])):
+            path = ("oracle", "criteria", i)
+            params = raw.get("params", {})
+            expressions = self._leaf(path, raw["type"], raw.get("action"), params)
+            expr = self.expression(raw["expect"], (*path, "expect"))
+            start, end = raw.get("from"), raw.get("to")
+            if start is not None and end is not None and start >= end:
+                self.add((*path, "from"), f"'from' ({start}) must be less than 'to' ({end})", "limit")
+            if expr is not None:
+                out.append(Criterion(
+                    raw["id"], raw["type"], expr, raw.get("name", raw["id"]), i, start, end, raw.get("at"),
+                    action=raw.get("action"), params=freeze(params), expressions=freeze(expressions),
+                ))  # fmt: skip
+        return out
+
+    def cycles(self, entries: list[Entry]) -> None:
+        if is_acyclic({e.id: e.after for e in entries}):  # the common case, without building a graph
+            return
+        graph = nx.DiGraph()
+        graph.add_nodes_from(e.id for e in entries)
+        graph.add_edges_from((p, e.id) for e in entries for p in e.after)
+        index = {e.id: e for e in entries}
+        found = []
+        for component in nx.strongly_connected_components(graph):
+            if len(component) < 2:
+                continue
+            start = min(component, key=lambda v: index[v].index)
+            cycle = _cycle_through(graph.subgraph(component), start)
+            found.append((index[start].index, cycle))
+        for _, cycle in sorted(found):
+            # report at the 'after' item of the cycle's first node that names its predecessor
+            first, pred = cycle[0], cycle[-2]
+            k = index[first].after.index(pred)
+            self.add(("execute", index[first].index, "after", k), f"cycle: {' -> '.join(cycle)}", "graph")
+
+
+def _cycle_through(graph: nx.DiGraph, start: str) -> list[str]:
+    """A cycle through *start* in a strongly connected *graph*, written pred -> succ."""
+    path = nx.shortest_path(graph, start, next(iter(graph.pred[start])))
+    return [*path, start]
+
+
+def _params_key(kind: str, action: str | None, params: Mapping[str, Any] | None) -> Any:
+    """A hashable key for a leaf's *params* made of scalars (``None`` otherwise).
+
+    Each value's type is part of the key: ``1``, ``1.0`` and ``True`` are equal
+    in Python but not to a JSON Schema.
+    """
+    if not params:
+        return (kind, action)
+    try:
+        key = (kind, action, *((k, v.__class__, v) for k, v in params.items()))
+        hash(key)
+    except TypeError:  # a list or object value
+        return None
+    return key
+
+
+def freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
+    """A read-only copy; every empty one is the same shared object (most entries have no expressions)."""
+    return MappingProxyType(dict(mapping)) if mapping else EMPTY
+
+
+def _pointer(path: tuple[PathPart, ...]) -> str:
+    return Problem(path, "").pointer
+
+
+def system_spec(data: Any, source: str) -> SystemSpec | None:
+    """The system a case document names, its ``config`` resolved relative to the file *source*
+    (absolute), or None when it names none or not in a usable shape (validation says why)."""
+    raw = data.get("system") if isinstance(data, dict) else None
+    if not isinstance(raw, dict) or not isinstance(raw.get("type"), str):
+        return None
+    if raw.get("config") is not None and not isinstance(raw["config"], str):
+        return None
+    options = raw.get("options", ())
+    options = tuple(options) if isinstance(options, list) and all(isinstance(o, str) for o in options) else ()
+    return spec_of({**raw, "options": options}, source)
+
+
+def spec_of(raw: Mapping[str, Any] | None, source: str) -> SystemSpec:
+    """The case's ``system`` key as a :class:`SystemSpec`, ``config`` resolved relative to the case file."""
+    if raw is None:
+        return SystemSpec()
+    config = raw.get("config")
+    if config is not None:
+        base = os.path.dirname(os.path.abspath(source)) if source != "<dict>" else os.getcwd()
+        config = os.path.normpath(os.path.join(base, config))
+    return SystemSpec(raw["type"], config, tuple(raw.get("options", ())))
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def option_problems(options: tuple[str, ...], system_type: Any) -> list[tuple[int, str]]:
+    """Options not on *system_type*'s allow-list, as ``(index, message)``.
+
+    An item starting with ``-`` is an option: its name (before any ``=``) must be
+    on the list. Any other item is the value of the option just before it (at
+    most one value per option; a negative number counts as a value), so a stray
+    item - a file name, say - can never slip through as a positional argument.
+    """
+    allowed = sorted(getattr(system_type, "options", ()) or ())
+    problems: list[tuple[int, str]] = []
+    value_may_follow = False
+    for index, item in enumerate(options):
+        if value_may_follow and (not item.startswith("-") or _is_number(item)):
+            value_may_follow = False
+            continue
+        if not item.startswith("-"):
+            problems.append((index, f"{shown(item)} is not an option (options start with '-', each followed by at most one value)"))
+            continue
+        name, eq, _ = item.partition("=")
+        value_may_follow = not eq
+        if name not in allowed:
+            if not allowed:
+                problems.append((index, f"the {system_type.name!r} system takes no options"))
+            else:
+                tip = suggest(name, allowed) or f" (allowed: {', '.join(allowed)})"
+                problems.append((index, f"option {shown(name)} is not allowed for the {system_type.name!r} system{tip}"))
+    return problems
+

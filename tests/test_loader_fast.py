@@ -1,4 +1,4 @@
-"""The loader's shortcuts for valid documents report exactly what the detailed checks would."""
+"""The loader's shortcuts for valid documents report exactly what the words of its rules say when they fail."""
 
 from __future__ import annotations
 

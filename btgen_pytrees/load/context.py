@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import os
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any, Iterable, Mapping
 
 import networkx as nx
 
@@ -13,7 +13,7 @@ from ..errors import PathPart, Problem
 from ..expressions import RESERVED, Expression, ExpressionError, parse
 from ..leaves import Registry
 from ..contracts.registry import LeafType
-from ..model import DEFAULT_JOIN, DEFAULT_TICK, DEFAULT_TIMEOUT, EMPTY, Criterion, Entry
+from ..model import DEFAULT_TICK, DEFAULT_TIMEOUT, EMPTY, Criterion, Entry
 from ..order import is_acyclic
 from ..contracts.system import SystemInfo, SystemSpec
 from .limits import MAX_TICKS, MIN_TICK
@@ -115,78 +115,6 @@ class Checker:
         elif timeout / tick > MAX_TICKS:
             self.add(("timeout",), f"timeout/tick is {timeout / tick:.3g} ticks; the limit is {MAX_TICKS}", "limit")
 
-    def entries(self) -> list[Entry]:
-        raw_entries = self.data["execute"]
-        raw_criteria = self.data.get("oracle", {}).get("criteria", [])
-        first: dict[str, tuple[PathPart, ...]] = {}
-        for where, items in (("execute", raw_entries), ("criteria", raw_criteria)):
-            for i, item in enumerate(items):
-                path = ("execute", i, "id") if where == "execute" else ("oracle", "criteria", i, "id")
-                if item["id"] in first:
-                    self.add(path, f"duplicate id {item['id']!r} (first used at {_pointer(first[item['id']])})", "id")
-                else:
-                    first[item["id"]] = path
-        execute_ids = {e["id"] for e in raw_entries}
-        criteria_ids = {c["id"] for c in raw_criteria}
-        default_join = self.data.get("join", DEFAULT_JOIN)
-        entries = []
-        # (kind, action, params) -> the frozen params, for leaves whose check of those params was
-        # path-independent and clean: entries sharing params (most: {"duration": 0.1}) are checked
-        # once and share one read-only mapping
-        checked: dict[Any, Mapping[str, Any]] = {}
-        for i, raw in enumerate(raw_entries):
-            after = self._after(i, raw, execute_ids, criteria_ids)
-            entries.append(self.entry(i, raw, after, default_join, checked))
-        return entries
-
-    def entry(self, i: int, raw: Mapping[str, Any], after: tuple[str, ...], join: str,
-              checked: dict[Any, Mapping[str, Any]]) -> Entry:  # fmt: skip
-        """Execute entry *i* (*after* already checked): its leaf's params checked, or shared from *checked*."""
-        kind, action, params = raw["kind"], raw["action"], raw.get("params")
-        key = _params_key(kind, action, params)
-        frozen = checked.get(key) if key is not None else None
-        if frozen is not None:
-            expressions = EMPTY
-        else:
-            before = len(self.problems)
-            compiled = self._leaf(("execute", i), kind, action, params if params is not None else {})
-            frozen = freeze(params)
-            expressions = freeze(compiled)
-            if key is not None and not compiled and len(self.problems) == before and self._plain(kind, action, params):
-                checked[key] = frozen
-        return Entry(
-            id=raw["id"], kind=kind, action=action, params=frozen, after=after,
-            join=raw.get("join", join), name=raw.get("name", raw["id"]), index=i,
-            expressions=expressions,
-        )  # fmt: skip
-
-    def _plain(self, kind: str, action: str | None, params: Mapping[str, Any] | None) -> bool:
-        """Whether *params* of this leaf hold no signal name or expression (so its check is path-independent)."""
-        leaf = self.registry.get(kind, action)
-        return leaf is not None and not any(name in (params or {}) for name in (*leaf.signals, *leaf.expressions))
-
-    def _after(self, i: int, raw: Mapping[str, Any], execute_ids: set[str], criteria_ids: set[str]) -> tuple[str, ...]:
-        listed = raw.get("after")
-        if not listed:
-            return ()
-        preds = tuple(listed)
-        if raw["id"] not in preds and len(set(preds)) == len(preds) and execute_ids.issuperset(preds):
-            return preds  # the common case: every item names another execute entry, once
-        seen: dict[str, None] = {}  # ordered, O(1) membership
-        for k, pred in enumerate(preds):
-            path = ("execute", i, "after", k)
-            if pred == raw["id"]:
-                self.add(path, f"{pred!r} cannot come after itself", "graph")
-            elif pred in seen:
-                self.add(path, f"{pred!r} is listed twice", "graph")
-            elif pred not in execute_ids and pred in criteria_ids:
-                self.add(path, f"{pred!r} is an oracle criterion, not an execute entry", "graph")
-            elif pred not in execute_ids:
-                self.add(path, f"unknown id {pred!r}{suggest(pred, execute_ids)}", "graph")
-            else:
-                seen[pred] = None
-        return tuple(seen)
-
     def params(self, leaf: LeafType, path: tuple[PathPart, ...], params: Mapping[str, Any]) -> bool:
         """Check *params* against the leaf's own schema; whether they fit."""
         validator = leaf.params_validator
@@ -196,15 +124,15 @@ class Checker:
         self.problems.extend(described(validator.iter_errors(params), params, (*path, "params"), "action"))
         return len(self.problems) == before
 
-    def leaves_alongside_shape(self) -> None:
-        """Registration and ``params`` of every entry and criterion whose own shape is right.
+    def leaves_alongside_shape(self, entries: Iterable[tuple[int, Any]]) -> None:
+        """Registration and ``params`` of the *entries* ``(index, raw)`` and of every criterion whose own shape is right.
 
         Runs with stage 1 when the schema found problems, so that a document needs
         one round of corrections, not one for the shape and one for the params.
+        (The entries not given passed these checks in the entry loop.)
         """
         data = self.data
-        entries = data.get("execute")
-        for i, raw in enumerate(entries if isinstance(entries, list) else ()):
+        for i, raw in entries:
             if not isinstance(raw, dict) or raw.get("kind") not in ("behavior", "constraint"):
                 continue
             action, params = raw.get("action"), raw.get("params", {})
@@ -240,7 +168,7 @@ class Checker:
         self.add((*path, "action"), f"unknown {kind} action {shown(action)}{hint}; known: {listed}{self._plugin_hint(action)}", "action")
         return None
 
-    def _leaf(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> dict[str, Expression]:
+    def check_leaf(self, path: tuple[PathPart, ...], kind: str, action: str | None, params: Mapping[str, Any]) -> dict[str, Expression]:
         """Check that a leaf is registered for (kind, action) and that its params fit; parse its expressions."""
         leaf = self.registry.get(kind, action)
         owner = self._other_system(action)
@@ -284,7 +212,7 @@ class Checker:
         for i, raw in enumerate(self.data.get("oracle", {}).get("criteria", [])):
             path = ("oracle", "criteria", i)
             params = raw.get("params", {})
-            expressions = self._leaf(path, raw["type"], raw.get("action"), params)
+            expressions = self.check_leaf(path, raw["type"], raw.get("action"), params)
             expr = self.expression(raw["expect"], (*path, "expect"))
             start, end = raw.get("from"), raw.get("to")
             if start is not None and end is not None and start >= end:
@@ -323,29 +251,9 @@ def _cycle_through(graph: nx.DiGraph, start: str) -> list[str]:
     return [*path, start]
 
 
-def _params_key(kind: str, action: str | None, params: Mapping[str, Any] | None) -> Any:
-    """A hashable key for a leaf's *params* made of scalars (``None`` otherwise).
-
-    Each value's type is part of the key: ``1``, ``1.0`` and ``True`` are equal
-    in Python but not to a JSON Schema.
-    """
-    if not params:
-        return (kind, action)
-    try:
-        key = (kind, action, *((k, v.__class__, v) for k, v in params.items()))
-        hash(key)
-    except TypeError:  # a list or object value
-        return None
-    return key
-
-
 def freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
     """A read-only copy; every empty one is the same shared object (most entries have no expressions)."""
     return MappingProxyType(dict(mapping)) if mapping else EMPTY
-
-
-def _pointer(path: tuple[PathPart, ...]) -> str:
-    return Problem(path, "").pointer
 
 
 def system_spec(data: Any, source: str) -> SystemSpec | None:

@@ -1,4 +1,5 @@
-"""A valid document made into its :class:`~btgen_pytrees.model.TestCase`."""
+"""Everything of a document but its entries: the rest checked against the schema, and the valid document made into its
+:class:`~btgen_pytrees.model.TestCase`."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ from typing import Any, Mapping
 from ..leaves import Registry
 from ..model import DEFAULT_JOIN, DEFAULT_TICK, DEFAULT_TIMEOUT, Criterion, Entry, TestCase
 from ..contracts.system import SystemSpec
+from .schema import case_validator
 from .warnings import overlapping_writes
 
-__all__ = ["build_case"]
+__all__ = ["build_case", "rest_fits", "SMALL"]
 
 def build_case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Criterion], spec: SystemSpec,
           registry: Registry, source: str) -> TestCase:  # fmt: skip
@@ -36,3 +38,20 @@ def build_case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Cri
     )
 
 
+
+
+SMALL = 100
+"""Criteria and signals up to which the rest of a document is checked by jsonschema itself (about a
+millisecond) rather than by the compiled check, whose compilation (40 ms, once per process) would
+cost more than it saves."""
+
+
+def rest_fits(doc: dict[str, Any]) -> bool:
+    """Whether *doc* fits the test-case schema (its entries stand-ins: each was checked in the entry loop)."""
+    validator = case_validator()
+    oracle, signals = doc.get("oracle"), doc.get("signals")
+    criteria = oracle.get("criteria") if type(oracle) is dict else None
+    size = (len(criteria) if type(criteria) is list else 0) + (len(signals) if type(signals) is dict else 0)
+    if size <= SMALL and "fast" not in validator.__dict__:  # not compiled yet: jsonschema's own walk is cheaper
+        return bool(validator.full.is_valid(doc))
+    return next(iter(validator.iter_errors(doc)), None) is None

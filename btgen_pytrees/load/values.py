@@ -90,15 +90,16 @@ def suspicious(data: Any, depth: int = 0) -> bool:
         return True
 
 
-def value_problems(data: Any) -> Iterator[Problem]:
-    if not suspicious(data):
+def value_problems(data: Any, prefix: tuple[PathPart, ...] = ()) -> Iterator[Problem]:
+    """The stage-0 problems of *data*, found at *prefix* in its document (the root: ``()``)."""
+    if not suspicious(data, len(prefix)):
         return
     if not isinstance(data, (dict, list)):
-        problem = _scalar_problem((), data)
+        problem = _scalar_problem(prefix, data)
         if problem is not None:
             yield problem
         return
-    stack: list[tuple[tuple[PathPart, ...], Any]] = [((), data)]
+    stack: list[tuple[tuple[PathPart, ...], Any]] = [(prefix, data)]
     while stack:  # iterative: no recursion limit to hit; paths are built for containers only
         path, container = stack.pop()
         if len(path) >= MAX_NESTING:

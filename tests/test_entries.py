@@ -1,13 +1,16 @@
-"""The loader's one pass (btgen_pytrees.onepass) builds exactly the case the detailed checks build.
+"""The one validation path reads a file entry by entry or whole, and builds the same case either way.
 
-For every document it either answers ``None`` (the detailed checks then run and say
-what is wrong, or accept it) or returns a case equal, field by field, to the one the
-detailed checks return - params shared between the same entries, the same expressions,
-the same warnings. It must never accept a document the detailed checks reject.
+A file is first read entry by entry, each entry checked and built as it is read, with the
+conditions alone (``load.case._streamed``); at the first failed condition it is read whole and
+the same checks run with their words (``load.case._checked``, also what ``validate`` runs on
+parsed data). For every document, reading entry by entry either answers ``None`` (not decided
+there) or returns a case equal, field by field, to the one the whole reading returns - params
+shared between the same entries, the same expressions, the same warnings. It must never accept
+a document the whole reading rejects.
 
-A longer, random run (after touching the loader or onepass.py)::
+A longer, random run (after touching load/)::
 
-    BTGEN_ONEPASS_EXAMPLES=5000 python -m pytest tests/test_onepass.py -q
+    BTGEN_ONEPASS_EXAMPLES=5000 python -m pytest tests/test_entries.py -q
 """
 
 from __future__ import annotations
@@ -25,11 +28,12 @@ from hypothesis import strategies as st
 from test_fuzz import mutants
 
 import btgen_pytrees
-from btgen_pytrees.load import onepass
 from btgen_pytrees.errors import InvalidTestCase
 from btgen_pytrees.leaves import default_registry
-from btgen_pytrees.load import parse_json
-from btgen_pytrees.load.case import _validate
+from btgen_pytrees.load import parse_json, validate
+from btgen_pytrees.load.case import _checked, _streamed
+from btgen_pytrees.load.entries import entry_rules
+from btgen_pytrees.load.read import NotStreamed
 from btgen_pytrees.model import TestCase
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -40,9 +44,18 @@ SETTINGS = settings(max_examples=_LONG or 200, deadline=None, derandomize=not _L
 
 
 def detailed(raw: bytes | str, source: str = "case.json") -> TestCase | None:
+    """The case as read whole, with words (None: invalid)."""
     try:
-        return _validate(parse_json(raw, source), source, REGISTRY, None)
+        return _checked(parse_json(raw, source), source, REGISTRY, None)
     except InvalidTestCase:
+        return None
+
+
+def streamed(raw: bytes | str, source: str = "case.json") -> TestCase | None:
+    """The case as read entry by entry, without words (None: not decided there)."""
+    try:
+        return _streamed(raw.encode("utf-8") if isinstance(raw, str) else raw, source, REGISTRY, None)
+    except NotStreamed:
         return None
 
 
@@ -63,26 +76,30 @@ def _typed(mapping: Any) -> Any:
 
 
 def check(raw: bytes | str, source: str = "case.json") -> TestCase | None:
-    """The one pass's answer for *raw*, after checking it against the detailed checks'."""
-    fast = onepass.from_text(raw, source, REGISTRY)
+    """The answer of reading *raw* entry by entry, after checking it against reading it whole."""
+    fast = streamed(raw, source)
     slow = detailed(raw, source)
     if fast is not None:
-        assert slow is not None, "the one pass accepted a document the detailed checks reject"
+        assert slow is not None, "reading entry by entry accepted a document reading it whole rejects"
         assert fields(fast) == fields(slow)
     try:
         data = parse_json(raw, source)
     except InvalidTestCase:
         return fast
-    from_data = onepass.from_data(data, source, REGISTRY)
+    try:
+        from_data = validate(data, source, REGISTRY)
+    except InvalidTestCase:
+        from_data = None
+    assert (from_data is None) == (slow is None), "validate() on parsed data and reading the file disagree"
     if from_data is not None:
-        assert slow is not None, "the one pass accepted a document the detailed checks reject"
+        assert slow is not None, "validate() accepted a document reading it whole rejects"
         assert fields(from_data) == fields(slow)
     return fast
 
 
-def test_the_schema_entry_is_the_one_this_pass_implements() -> None:
-    # If this fails, testcase.schema.json's entry changed: update onepass._ENTRY and _Builder.add with it.
-    assert onepass._entry_rules() is not None
+def test_the_schema_entry_is_the_one_the_entry_loop_implements() -> None:
+    # If this fails, testcase.schema.json's entry changed: update load/entries.py's _ENTRY and Entries.add_all with it.
+    assert entry_rules() is not None
 
 
 @pytest.mark.parametrize("path", sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "examples").rglob("*.json")))
@@ -90,7 +107,7 @@ def test_examples(path: str) -> None:
     raw = (ROOT / path).read_bytes()
     fast = check(raw, str(ROOT / path))
     if path.startswith("examples/fig1") and "sweep" not in path:
-        assert fast is not None  # within reach: the one pass answers
+        assert fast is not None  # within reach: read entry by entry, in one pass
 
 
 def _dump(data: Any, style: int) -> str:
@@ -146,7 +163,7 @@ def test_generated_documents(doc: tuple[dict[str, Any], int]) -> None:
     data, style = doc
     fast = check(_dump(data, style))
     if detailed(_dump(data, style)) is not None and '":' not in json.dumps([e.get("name") for e in data["execute"]]):
-        assert fast is not None  # a valid document within reach is answered by the one pass
+        assert fast is not None  # a valid document within reach is read entry by entry, in one pass
 
 
 @SETTINGS
@@ -164,8 +181,8 @@ def test_mutated_documents(mutant: tuple[bytes, list[str]]) -> None:
     '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","params":{"duration":1}}]} x',
     '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","params":{"duration":NaN}}]}',
 ])  # fmt: skip
-def test_what_json_loads_rejects_is_left_to_the_detailed_reader(text: str, tmp_path: pathlib.Path) -> None:
-    assert onepass.from_text(text, "case.json", REGISTRY) is None
+def test_what_json_loads_rejects_is_left_to_the_whole_reader(text: str, tmp_path: pathlib.Path) -> None:
+    assert streamed(text) is None
     (tmp_path / "case.json").write_text(text, encoding="utf-8")
     with pytest.raises(InvalidTestCase):
         btgen_pytrees.load(tmp_path / "case.json")
@@ -173,7 +190,7 @@ def test_what_json_loads_rejects_is_left_to_the_detailed_reader(text: str, tmp_p
 
 def test_a_colon_inside_a_string_is_not_taken_for_a_key(tmp_path: pathlib.Path) -> None:
     text = '{"name":"t","execute":[{"id":"A","kind":"behavior","action":"hold","name":"a\\":b","params":{"duration":1}}]}'
-    assert onepass.from_text(text, "case.json", REGISTRY) is None  # more '":' than keys: not decided here
+    assert streamed(text) is None  # more '":' than keys: not decided here
     (tmp_path / "case.json").write_text(text, encoding="utf-8")
     assert btgen_pytrees.load(tmp_path / "case.json").entries[0].name == 'a":b'
 

@@ -207,3 +207,37 @@ def test_a_long_chain_is_read_in_one_pass() -> None:
     fast = check(text)
     assert fast is not None and len({id(e.params) for e in fast.entries}) == 1
 
+
+
+@pytest.mark.parametrize("path", ["examples/fig1.json", "examples/fig1_failing.json"])
+def test_a_valid_document_builds_no_message(path: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each rule's words run only where its condition failed: a valid document, read from its file or given
+    as data, never reaches them."""
+    from btgen_pytrees.load import case as case_module
+    from btgen_pytrees.load import context as context_module
+    from btgen_pytrees.load import entries as entries_module
+
+    def words(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("a rule's words ran for a valid document")
+
+    for module, name in [(case_module, "described"), (case_module, "value_problems"), (case_module, "schema_problems"),
+                         (context_module, "described"), (context_module, "suggest"), (entries_module, "suggest")]:  # fmt: skip
+        monkeypatch.setattr(module, name, words)
+    raw = (ROOT / path).read_bytes()
+    assert btgen_pytrees.load(ROOT / path).entries
+    assert validate(parse_json(raw), path, REGISTRY).entries
+
+
+def test_a_system_action_s_params_get_the_value_checks_too(tmp_path: pathlib.Path) -> None:
+    """A dotted action (checked after the loop, with the whole document) had its params' values checked only
+    when the file was read whole: read entry by entry, a lone surrogate or a number beyond the limit got through."""
+    registry = default_registry()
+    registry.register("my.act", lambda e, env: None, kind="behavior")
+    for value, problem in [("\ud800", "not valid Unicode: lone surrogate"), (10**400, "number too large")]:
+        data = case(entry("A", action="my.act", value=value))
+        path = tmp_path / "case.json"
+        path.write_bytes(json.dumps(data).encode())
+        for load in (lambda: btgen_pytrees.load(path, registry=registry), lambda: validate(data, "case.json", registry)):
+            with pytest.raises(InvalidTestCase) as info:
+                load()
+            assert [(p.pointer, p.message.startswith(problem)) for p in info.value.problems] == [("/execute/0/params/value", True)]

@@ -1,11 +1,13 @@
 """Step 1 of the pipeline: a test case's JSON → a validated :class:`~btgen_pytrees.model.TestCase`.
 
 One validation path, in modules named for what they own (docs/architecture.md lists them):
-the file read within the limits (:mod:`.read`), the ``parameters``/``variations`` blocks and
-their substitution (:mod:`.template`, :mod:`.parameters`, :mod:`.variations`), the checks
-(:mod:`.values`, :mod:`.schema`, :mod:`.words`, :mod:`.context`), the case built
-(:mod:`.document`, with the load-time warnings of :mod:`.warnings`), all driven by
-:mod:`.case` (one case) and :mod:`.sweep` (every variation of a sweep).
+the file read within the limits, whole or entry by entry (:mod:`.read`), the
+``parameters``/``variations`` blocks and their substitution (:mod:`.template`,
+:mod:`.parameters`, :mod:`.variations`), the rules - each a cheap condition plus its words -
+of the entries (:mod:`.entries`) and of the rest (:mod:`.values`, :mod:`.schema`,
+:mod:`.words`, :mod:`.context`, :mod:`.document`), the case built (:mod:`.document`, with the
+load-time warnings of :mod:`.warnings`), all driven by :mod:`.case` (one case) and
+:mod:`.sweep` (every variation of a sweep).
 
 Note: ``btgen_pytrees.load`` as an attribute of the package is the function
 :func:`btgen_pytrees.load` (the public API); import this package's names with

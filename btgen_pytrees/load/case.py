@@ -124,10 +124,10 @@ def _checked(data: Any, source: str, registry: Registry, system: SystemSpec | No
         entries.doubtful.extend((i, execute[i]) for i in sorted(unsure))
         for i in unsure:
             entries.entries[i] = None
-    shown = [*entries.doubtful, *entries.later]
-    problems = [*value_problems(rest), *(p for i, raw in shown for p in value_problems(raw, ("execute", i)))]
-    if problems:  # stage 0
-        raise InvalidTestCase(sorted(set(problems), key=by_place), source)
+    if entries.doubtful or suspicious(rest):  # stage 0, where its condition failed (the other entries passed it in the loop)
+        problems = [*value_problems(rest), *(p for i, raw in entries.doubtful for p in value_problems(raw, ("execute", i)))]
+        if problems:
+            raise InvalidTestCase(sorted(set(problems), key=by_place), source)
     if not execute or not rest_fits({**rest, "execute": [STAND_IN]}):
         _raise_shape(data, source, registry, entries, rest, execute)
     problems = [p for i, raw in sorted(entries.doubtful, key=_first) for p in _entry_shape(i, raw)]
@@ -209,8 +209,8 @@ def _meaning(data: Mapping[str, Any], rest: Mapping[str, Any], entries: Entries,
             checker.cycles(done)
             if checker.problems:
                 raise NotStreamed
-    elif not any(p.cause == "graph" for p in checker.problems):
-        checker.cycles(done)
+    elif (entries.forward or todo) and not any(p.cause == "graph" for p in checker.problems):
+        checker.cycles(done)  # (entries built in the loop whose 'after' points up the file make no cycle)
     if checker.problems:
         raise InvalidTestCase(sorted(set(checker.problems), key=by_place), source)
     return build_case(data, done, criteria, checker.spec, registry, source)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from types import MappingProxyType
@@ -120,8 +121,12 @@ class Checker:
         validator = leaf.params_validator
         if validator is None:
             return True
+        errors = iter(validator.iter_errors(params))
+        first = next(errors, None)
+        if first is None:  # the condition: they fit (the compiled check, when there is one)
+            return True
         before = len(self.problems)
-        self.problems.extend(described(validator.iter_errors(params), params, (*path, "params"), "action"))
+        self.problems.extend(described(itertools.chain((first,), errors), params, (*path, "params"), "action"))
         return len(self.problems) == before
 
     def leaves_alongside_shape(self, entries: Iterable[tuple[int, Any]]) -> None:

@@ -247,8 +247,12 @@ class Entries:
             if count_keys:
                 keys += len(raw) + (len(params) if params else 0)
             if leaf.later:
-                if params and count_keys:
-                    keys += _nested_keys(params)
+                if params:
+                    if count_keys:
+                        keys += _nested_keys(params)
+                    if suspicious(params, 3):
+                        doubt(i, raw)
+                        continue
                 self.later.append((i, raw))
                 new_entry(None)
                 continue

@@ -156,7 +156,7 @@ class TestCase:
         system: the system under test (``simulated`` unless the case names one)
         require_complete: a run that passes with entries unfinished fails instead
         warnings: problems (:class:`~btgen_pytrees.errors.Problem`) that do not stop a run,
-            e.g. two entries that may write one signal at once (:mod:`btgen_pytrees.overlap`)
+            e.g. two entries that may write one signal at once (:mod:`btgen_pytrees.load.warnings`)
     """
 
     __test__ = False  # not a pytest class, despite the name

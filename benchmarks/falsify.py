@@ -72,9 +72,9 @@ __all__ = ["main", "CASES", "truth", "declared_truth", "island_margin", "case_pa
 ROOT = Path(__file__).resolve().parent
 CASES = ("island_2d", "island_4d", "cut_in_3d")
 METHODS = ("auto", "cmaes", "tpe", "sobol", "random")
-TRUTH_GRID: dict[str, Any] = {"island_2d": 101, "island_4d": 9, "cut_in_3d": (15, 6, 5)}
+TRUTH_GRID: dict[str, Any] = {"island_2d": 101, "island_4d": 9, "cut_in_3d": (15, 11, 9)}
 """Points per parameter of the truth grid (None: the declared resolution)."""
-FOCUS = {"cut_in_3d": ("gap", 1.5, 5.0, 20)}
+FOCUS = {"cut_in_3d": ("gap", 1.5, 5.0, 36)}
 """Where the truth grid is dense: (parameter, low, high, points); outside it a coarse grid (``outside``)
 must fail nowhere, and the share counts the dense part only, weighted by its part of the range."""
 GOALS = {"median_vs_random": 0.2, "found": 1.0, "boundary_in_resolution": 1.0, "search_cost": 0.05, "sumo_vs_bare": 1.5}

@@ -19,6 +19,7 @@ import json
 import os
 import pathlib
 import random
+import tempfile
 from typing import Any
 
 import pytest
@@ -241,3 +242,58 @@ def test_a_system_action_s_params_get_the_value_checks_too(tmp_path: pathlib.Pat
             with pytest.raises(InvalidTestCase) as info:
                 load()
             assert [(p.pointer, p.message.startswith(problem)) for p in info.value.problems] == [("/execute/0/params/value", True)]
+
+
+def _words(data: dict[str, Any]) -> list[str]:
+    """The problems of *data*, read from a file and given as data: the same, in the same order."""
+    found = []
+    with tempfile.TemporaryDirectory() as folder:
+        path = pathlib.Path(folder) / "case.json"
+        path.write_text(json.dumps(data), encoding="utf-8")
+        for load in (lambda: btgen_pytrees.load(path), lambda: btgen_pytrees.load(data)):
+            with pytest.raises(InvalidTestCase) as info:
+                load()
+            found.append([f"{p.pointer}: {p.message}" for p in info.value.problems])
+    assert found[0] == found[1]
+    return found[0]
+
+
+_IDENTIFIER = "is not valid: expected an identifier (a letter or '_', then letters, digits, '_' or '-')"
+_KNOWN = "known: hold, ramp, set (a plugin may add it: --plugin MODULE or FILE.py)"
+
+
+def test_an_entry_checked_at_the_end_with_a_bad_id_gets_the_schema_s_words() -> None:
+    # (messages as the loader gave them before the one path: an entry whose params name a signal is checked after
+    # the loop; the ids' pattern, checked for all entries at once, must still reach it and an 'after' naming it)
+    data = case(entry("A"), entry("-B", action="set", signal="x", value=1), entry("C", ["-B"]), signals={"x": 0})
+    assert _words(data) == [f"/execute/1/id: '-B' {_IDENTIFIER}", f"/execute/2/after/0: '-B' {_IDENTIFIER}"]
+
+
+def test_the_did_you_mean_budget_goes_to_the_first_problems_in_file_order() -> None:
+    words = _words(case(*[entry(f"E{i}", action=f"hld{i}") for i in range(22)]))
+    assert words[:2] == [f"/execute/{i}/action: unknown behavior action 'hld{i}' (did you mean 'hold'?); {_KNOWN}" for i in range(2)]
+    assert ["did you mean" in w for w in words] == [True] * 20 + [False] * 2
+
+
+def test_shape_problems_of_the_rest_and_the_entries_come_with_the_entries_leaves() -> None:
+    data = case(entry("A"), entry("B", action="hodl"), entry("C", action="set", signal="x", value="q"))
+    data["name"], data["execute"][0]["kind"] = 1, "behaviour"
+    assert _words(data) == [
+        "/execute/0/kind: 'behaviour' is not one of 'behavior', 'constraint' (did you mean 'behavior'?)",
+        f"/execute/1/action: unknown behavior action 'hodl' (did you mean 'hold'?); {_KNOWN}",
+        "/execute/2/params/value: 'q' is not of type 'number', 'boolean'",
+        "/name: 1 is not of type 'string': expected Test name; the root node's name.",
+    ]
+
+
+def test_ids_and_after_across_entries_and_criteria() -> None:
+    data = case(entry("A"), entry("A"), entry("B", ["A", "A", "B", "Zz", "C1"]), entry("C", ["D"]), entry("D", ["C"]),
+                criteria=[crit("A", "record", "x > 1"), crit("C1", "record", "x > 1")])  # fmt: skip
+    assert _words(data) == [
+        "/execute/1/id: duplicate id 'A' (first used at /execute/0/id)",
+        "/execute/2/after/1: 'A' is listed twice",
+        "/execute/2/after/2: 'B' cannot come after itself",
+        "/execute/2/after/3: unknown id 'Zz'",
+        "/execute/2/after/4: 'C1' is an oracle criterion, not an execute entry",
+        "/oracle/criteria/0/id: duplicate id 'A' (first used at /execute/0/id)",
+    ]  # (the cycle C -> D -> C is not described while 'after' has other problems)

@@ -36,8 +36,7 @@ from __future__ import annotations
 
 import heapq
 from functools import cached_property
-from typing import Collection, Mapping, NamedTuple
-from typing import Sequence as Sequence_
+from typing import Any, Mapping
 
 import networkx as nx
 import py_trees
@@ -46,9 +45,9 @@ from py_trees.composites import Parallel, Sequence
 from ..leaves import Environment, Registry
 from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
 from ..model import Entry
-from ..order import positions
+from ..timeline import topological_positions
 
-__all__ = ["execute_subtree", "walk", "rows", "case_rows", "Rows", "MAX_DEPTH", "EXECUTE_DEPTH"]
+__all__ = ["execute_subtree", "walk_consuming", "MAX_DEPTH", "EXECUTE_DEPTH"]
 
 MAX_DEPTH = 100
 """Deepest level any generated node may sit at (the generated root is level 1)."""
@@ -108,115 +107,46 @@ class _ChainWriter:
         return part
 
 
-class Rows(NamedTuple):
-    """A timeline's adjacency as Algorithm 1 walks it (see :func:`rows` and :func:`case_rows`).
-
-    Attributes:
-        pred: each entry's predecessors (its column), keys in file order
-        link: ``link[v]`` is *v*'s only successor, where *v* is that successor's only
-            predecessor too: the successor continues *v*'s Sequence (the usual step)
-        rest: the successors of every other entry that has some, in file order
-    """
-
-    pred: Mapping[str, Collection[str]]
-    link: dict[str, str]
-    rest: dict[str, list[str]]
-
-
-def rows(pred: Mapping[str, Collection[str]], succ: Mapping[str, Collection[str]]) -> Rows:
-    """The :class:`Rows` of a timeline given as its predecessors and successors (a networkx
-    graph's ``_pred`` and ``_succ``: what ``graph.pred`` and ``graph.succ`` wrap)."""
-    link: dict[str, str] = {}
-    rest: dict[str, list[str]] = {}
-    for v, successors in succ.items():
-        if len(successors) == 1:
-            (s,) = successors
-            if len(pred[s]) == 1:
-                link[v] = s
-                continue
-        if successors:
-            rest[v] = list(successors)
-    return Rows(pred, link, rest)
-
-
-def case_rows(entries: Sequence_[Entry]) -> Rows | None:
-    """The :class:`Rows` of the timeline of *entries* (a case's, in file order), read from their
-    ``after`` alone: what :func:`rows` gives for ``timeline(case)``'s graph, without building the graph.
-
-    The graph (four dicts per entry and one per edge, a view object per look-up) cost a
-    100,000-entry chain about a fifth of its tree; here a chain's rows are two dicts of strings,
-    and no object is made per entry at all (every object made counts towards the collector's next
-    full collection, which walks everything alive). ``None`` for what the loader never gives (an id
-    twice, an ``after`` that names an id twice or no entry): the graph decides those.
-    """
-    pred = {e.id: e.after for e in entries}
-    if len(pred) != len(entries):
-        return None
-    link: dict[str, str] = {}
-    rest: dict[str, list[str]] = {}
-    for v, after in pred.items():
-        if len(after) == 1:  # v continues its predecessor's Sequence, unless that one has other successors
-            (p,) = after
-            if p in link:
-                rest[p] = [link.pop(p), v]
-            elif p in rest:
-                rest[p].append(v)
-            elif p in pred:
-                link[p] = v
-            else:
-                return None
-        elif after:  # v is a join
-            if len(set(after)) < len(after):
-                return None
-            for p in after:
-                if p in link:
-                    rest[p] = [link.pop(p), v]
-                elif p in rest:
-                    rest[p].append(v)
-                elif p in pred:
-                    rest[p] = [v]
-                else:
-                    return None
-    return Rows(pred, link, rest)
-
-
 class _Walk:
-    """One run of Algorithm 1 over a timeline's :class:`Rows`.
+    """One run of Algorithm 1 over a graph.
 
-    The walk reads plain dicts, never networkx views (every view look-up builds an
-    object; on a 100,000-entry timeline those look-ups and
-    ``nx.lexicographical_topological_sort`` were about a quarter of generation).
-    In-degrees are ``len(pred[v])``; which entries a trigger waits for is decided
-    where the row walk reaches them. The walk never changes the rows.
+    The walk reads the graph's adjacency dicts (``graph._succ``, ``graph._pred``,
+    ``graph._node``: what ``graph.succ``, ``graph.pred`` and ``graph.nodes`` wrap)
+    directly: every view lookup builds an object, and on a 100,000-entry
+    timeline those lookups and ``nx.lexicographical_topological_sort`` were
+    about a quarter of generation. In-degrees are ``len(pred[v])``; which
+    entries a trigger waits for is decided where the row walk reaches them.
     """
 
-    def __init__(self, timeline: Rows, entries: Mapping[str, Entry], env: Environment, registry: Registry, depth: int,
-                 max_depth: int):  # fmt: skip
-        self.pred, self.link, self.rest = timeline
-        self.entry_of = entries
+    def __init__(self, graph: nx.DiGraph, env: Environment, registry: Registry, depth: int, max_depth: int,
+                 consume: bool = False, entries: Mapping[str, Entry] | None = None):  # fmt: skip
+        self.consume = consume
+        self.succ: dict[str, dict[str, Any]] = graph._succ
+        self.pred: dict[str, dict[str, Any]] = graph._pred
+        self.nodes: dict[str, dict[str, Any]] = graph._node
+        # each node's Entry: from its 'entry' attribute, or given (generate's own graph carries no attributes)
+        self.entry_of: Mapping[str, Entry] = entries if entries is not None else {v: a["entry"] for v, a in graph._node.items()}
         self.env = env
         self.registry = registry
         self.depth = depth
         self.max_depth = max_depth
-        self.built = 0  # leaves built: fewer than entries after the walk only when a cycle hid some
+        self.graph = graph
         joins = [(v, p) for v, p in self.pred.items() if len(p) > 1]
-        if joins or any(len(s) > 1 for s in self.rest.values()):
+        if joins or not consume or any(len(s) > 1 for s in self.succ.values()):
             # the order (and the cycle check) before anything is built; without joins and forks
             # (a chain) no order is ever read, and build() finds a cycle by the entries it did not reach
             self.position  # noqa: B018
         # column walk: (topological position, first entry, predecessors, join, hoisted fork's entry or "")
+        entry_of = self.entry_of
         self.heads: list[tuple[int, str, tuple[str, ...], str, str]] = [
-            (self.position[v], v, tuple(p), entries[v].join, "") for v, p in joins
+            (self.position[v], v, tuple(p), entry_of[v].join, "") for v, p in joins
         ]
         heapq.heapify(self.heads)
 
     @cached_property
     def position(self) -> dict[str, int]:
         """Each entry's place in the topological order (raises NetworkXUnfeasible on a cycle)."""
-        found = positions(self.pred)
-        if found is None:
-            raise nx.NetworkXUnfeasible("the timeline has a cycle")
-        return found
+        return topological_positions(self.graph)
 
     def leaf(self, v: str, wrap: bool) -> py_trees.behaviour.Behaviour:
         node = self.registry.build(self.entry_of[v], self.env)
@@ -231,28 +161,37 @@ class _Walk:
         stack: list[tuple[Sequence, str, int]] = []
         if fork_of is not None:
             self.fork(_ChainWriter(seq, level), fork_of, self.singles(fork_of), stack)
+            if self.consume:
+                del self.succ[fork_of]
         else:
             stack.append((seq, first, level))
-        link, rest, entry_of = self.link, self.rest, self.entry_of
+        succ, pred, nodes, entry_of, consume = self.succ, self.pred, self.nodes, self.entry_of, self.consume
         build, env = self.registry.build, self.env
-        built = 0
         while stack:
             seq, v, level = stack.pop()
             out = _ChainWriter(seq, level)
             while True:
-                built += 1
-                s = link.get(v)
-                if s is not None:  # the usual step: s continues v's Sequence (no fork, no hoist, no Completion)
-                    out.add(build(entry_of[v], env))
-                    v = s
-                    continue
-                successors = rest.get(v, ())
+                successors = succ[v]
+                if len(successors) == 1:  # the usual step, without the lists singles() builds
+                    (s,) = successors
+                    if len(pred[s]) == 1:  # s continues v's Sequence: no fork, no hoist, no Completion
+                        out.add(build(entry_of[v], env))
+                        if consume:  # what drop() does, inline
+                            del nodes[v], succ[v]
+                            if len(pred[v]) < 2:
+                                del pred[v]
+                        v = s
+                        continue
                 singles = self.singles(v) if successors else []
                 # fork Parallel, branch Sequence, part Sequence (a branch longer than CHUNK),
                 # Completion, leaf: up to five more levels
                 hoist = len(singles) > 1 and out.level + 5 > self.max_depth
                 # a successor with other predecessors is a join, whose trigger waits for v
                 out.add(self.leaf(v, wrap=hoist or len(singles) != len(successors)))
+                if consume:  # v's leaf and row are done: drop them from the graph (a hoisted fork reads its row later)
+                    self.drop(v)
+                    if not hoist:
+                        del succ[v]
                 if not singles:
                     break
                 if hoist:
@@ -264,12 +203,21 @@ class _Walk:
                     continue
                 self.fork(out, v, singles, stack)
                 break
-        self.built += built
+
+    def drop(self, v: str) -> None:
+        """Forget *v*'s attributes, and its column unless it is a join's (consume mode, once *v*'s leaf is built).
+
+        Only the predecessors' row walks read a column (``singles``), and they all ran before *v*
+        was reached - unless *v* is a join, whose predecessors may be walked later.
+        """
+        del self.nodes[v]
+        if len(self.pred[v]) < 2:
+            del self.pred[v]
 
     def singles(self, v: str) -> list[str]:
         """Successors of *v* that have no other predecessor (they continue *v*'s Sequence)."""
         pred = self.pred
-        return [s for s in self.rest.get(v, ()) if len(pred[s]) == 1]
+        return [s for s in self.succ[v] if len(pred[s]) == 1]
 
     def fork(self, out: _ChainWriter, v: str, singles: list[str], stack: list[tuple[Sequence, str, int]]) -> None:
         """Append ``Parallel(fork v)`` with one branch Sequence per successor; queue the branches."""
@@ -286,7 +234,7 @@ class _Walk:
         root = WakingParallel("timeline", self.env)
         roots = Parallel("roots", _all())
         root.add_child(Sequence("begin", memory=True, children=[RunStart(self.env), roots]))
-        for v in [v for v, p in self.pred.items() if not p]:  # file order
+        for v in [v for v, p in self.pred.items() if not p]:  # file order (listed first: the walk may drop columns)
             seq = Sequence(f"chain {v}", memory=True)
             roots.add_child(seq)
             self.chain(seq, v, self.depth + 3)
@@ -296,7 +244,7 @@ class _Walk:
             seq = Sequence(name, memory=True, children=[Trigger(self.env, preds, join)])
             root.add_child(seq)
             self.chain(seq, v, self.depth + 1, fork_of=fork_of or None)
-        if self.built < len(self.pred):  # entries no walk reached: only a cycle hides them (when no order was taken)
+        if self.consume and self.nodes:  # entries no walk reached: only a cycle hides them (when no order was taken)
             raise nx.NetworkXUnfeasible("the timeline has a cycle")
         return root
 
@@ -318,20 +266,20 @@ def execute_subtree(
         registry: where entry leaves come from
         depth: the level the returned Parallel will sit at in the full tree
         max_depth: deepest level a node may reach (see :data:`MAX_DEPTH`)
-        consume: the graph is the caller's to throw away: it is cleared once
-            the subtree is built
+        consume: the graph is the caller's to throw away: the walk drops each
+            entry's attributes and successors from it once it has used them, so
+            the graph shrinks while the tree grows (:func:`~.tree.generate`,
+            which builds its own graph, passes True; the graph is left broken)
     """
-    entries = {v: a["entry"] for v, a in graph._node.items()}
-    try:
-        return walk(rows(graph._pred, graph._succ), entries, env, registry, depth=depth, max_depth=max_depth)
-    finally:
-        if consume:
-            graph.clear()
-
-
-def walk(timeline: Rows, entries: Mapping[str, Entry], env: Environment, registry: Registry, *,
-         depth: int = EXECUTE_DEPTH, max_depth: int = MAX_DEPTH) -> Parallel:  # fmt: skip
-    """:func:`execute_subtree` over a timeline's :class:`Rows`, each entry given by its id in *entries*."""
     if max_depth < depth + 8:
         raise ValueError(f"max_depth must be at least {depth + 8}")
-    return _Walk(timeline, entries, env, registry, depth, max_depth).build()
+    return _Walk(graph, env, registry, depth, max_depth, consume).build()
+
+
+def walk_consuming(graph: nx.DiGraph, entries: Mapping[str, Entry], env: Environment, registry: Registry, *,
+                   depth: int, max_depth: int) -> Parallel:  # fmt: skip
+    """:func:`execute_subtree` with ``consume=True`` over a graph built without node attributes
+    (:func:`~.tree.generate`'s own), the entries given by id instead."""
+    if max_depth < depth + 8:
+        raise ValueError(f"max_depth must be at least {depth + 8}")
+    return _Walk(graph, env, registry, depth, max_depth, True, entries).build()

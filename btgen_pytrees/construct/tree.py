@@ -26,7 +26,7 @@ from ..leaves import Environment, Registry, default_registry, unique_namespace
 from ..leaves.wiring import EXECUTE, Completion, TreeRoot
 from ..model import TestCase
 from ..timeline import timeline
-from .execute import EXECUTE_DEPTH, MAX_DEPTH, case_rows, rows, walk
+from .execute import EXECUTE_DEPTH, MAX_DEPTH, walk_consuming
 from .oracle import oracle_subtree
 
 __all__ = ["generate"]
@@ -58,12 +58,12 @@ def generate(
     """
     registry = registry if registry is not None else default_registry()
     env = Environment(namespace or unique_namespace(case.name), clock, case.signals)
-    found = case_rows(case.entries)  # the timeline, read from the entries (no networkx graph: see case_rows)
-    if found is None:  # a hand-made case the loader would have rejected: its graph decides
-        graph = timeline(case, attributes=False)
-        found = rows(graph._pred, graph._succ)
-    entries = {e.id: e for e in case.entries}
-    walked = walk(found, entries, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth)
+    graph = timeline(case, attributes=False)  # the timeline; the walk takes each node's entry from the case
+    try:
+        entries = {e.id: e for e in case.entries}
+        walked = walk_consuming(graph, entries, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth)
+    finally:
+        graph.clear()  # networkx caches views that refer back to the graph: free it now, not at the next gc
     execute = Completion(walked, env, marks=EXECUTE, name="execute")
     oracle, others = oracle_subtree(case.criteria, dict(case.relation), env, registry)
     children: list[Any] = [execute] if oracle is None else [execute, oracle]

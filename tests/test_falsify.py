@@ -521,3 +521,28 @@ def test_ctrl_c_keeps_what_was_found(tmp_path: pathlib.Path, jobs: str, group: b
     time.sleep(0.5)  # forked workers carry falsify's command line (the sweep's unique path): none may be left
     left = [w for w in workers if _alive(w)] + _running_with(path)
     assert not left, left
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_workers_leave_when_falsify_is_killed(tmp_path: pathlib.Path) -> None:
+    """SIGKILL (or the out-of-memory killer) gives falsify no chance to stop its workers: they notice
+    their parent is gone and leave instead of waiting for a task forever."""
+    import signal
+    import time
+
+    path = write(tmp_path, island(search={"budget": 100000, "stop": "all"}))
+    process = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "falsify", path, "--jobs", "2"], cwd=tmp_path,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+                               env={**os.environ, "PYTHONPATH": str(ROOT)})  # fmt: skip
+    deadline = time.monotonic() + 60
+    while len(_running_with(path)) < 2 and time.monotonic() < deadline:  # its workers are up
+        time.sleep(0.05)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    deadline = time.monotonic() + 10
+    while _running_with(path) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = _running_with(path)
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    assert not left, left

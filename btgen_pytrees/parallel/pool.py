@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import multiprocessing
 import multiprocessing.context
+import os
 import signal
 import sys
 import time
@@ -58,18 +59,29 @@ def _signals_held() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
+_WATCH = 1.0
+"""Seconds between a waiting worker's checks that its parent is alive."""
+
+
 def _worker(conn: Connection) -> None:
     """A worker process: run tasks from *conn* one at a time until told to stop.
 
     Ctrl-C reaches every process of the terminal's group: workers ignore it and
-    let the parent decide (it stops them with SIGTERM, then SIGKILL).
+    let the parent decide (it stops them with SIGTERM, then SIGKILL). A parent
+    that dies without a word (SIGKILL, the out-of-memory killer) is noticed while
+    waiting for a task: forked workers hold their pipes' other ends, so no EOF
+    would ever come, and they would wait forever.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = os.getppid()
     try:
         signal.signal(signal.SIGTERM, _stop)
         if hasattr(signal, "pthread_sigmask"):  # forked with them held (_signals_held): a SIGTERM waiting now stops it
             signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
         while True:
+            while not conn.poll(_WATCH):
+                if os.getppid() != parent:  # orphaned: the parent is gone
+                    return
             try:
                 task = conn.recv()
             except EOFError:

@@ -21,7 +21,7 @@ from .construct import generate
 from .errors import ExitCode, InvalidTestCase, plural
 from .leaves import default_registry
 from .load import MAX_WORK, check_work, load, load_json, parse_json, validate
-from .output import report_outputs
+from .writing import report_outputs
 from .load.warnings import warning_lines
 from .parallel import Outcome
 from .render import render

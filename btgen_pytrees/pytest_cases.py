@@ -37,7 +37,7 @@ from .leaves import FactoryError, PluginError, Registry, default_registry
 from .leaves.plugins import is_path
 from .load import check_work, load_json, validate
 from .model import TestCase
-from .output import commit
+from .writing import commit
 from .run import Report, run, run_tree
 from .run.plot import PlotUnavailable, plot_bytes, require_matplotlib
 from .run.replay import replay_html

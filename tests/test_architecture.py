@@ -33,9 +33,9 @@ LAYERS: dict[str, int] = {
     "btgen_pytrees.errors": 0,
     "btgen_pytrees.expressions": 0,
     "btgen_pytrees.clock": 0,
-    "btgen_pytrees.output": 0,
+    "btgen_pytrees.writing": 0,
     "btgen_pytrees.progress": 0,
-    "btgen_pytrees.validation": 0,
+    "btgen_pytrees.validator": 0,
     "btgen_pytrees.model": 0,
     # L1: contracts and algorithms that know no leaf, system or view
     "btgen_pytrees.timeline": 1,
@@ -273,7 +273,7 @@ def test_the_checks_find_each_kind_of_break(tmp_path: pathlib.Path) -> None:
         "model.py": "from btgen_pytrees.errors import Problem\n",
         "expressions.py": "from .run.runner import run\n",
         "clock.py": "def now():\n    from . import errors\n    return errors\n",
-        "output.py": "from .errors import _private, public\n",
+        "writing.py": "from .errors import _private, public\n",
         "run/__init__.py": "",
         "run/runner.py": "from ..errors import Problem\n",
     }
@@ -281,7 +281,7 @@ def test_the_checks_find_each_kind_of_break(tmp_path: pathlib.Path) -> None:
         (pkg / name).write_text(text)
     assert cycles(pkg) == {frozenset({"btgen_pytrees.errors", "btgen_pytrees.model"})}
     assert function_level(pkg) == {("btgen_pytrees.clock", "btgen_pytrees.errors")}
-    assert private_names(pkg) == {("btgen_pytrees.output", "btgen_pytrees.errors", "_private")}
+    assert private_names(pkg) == {("btgen_pytrees.writing", "btgen_pytrees.errors", "_private")}
     # importing run.runner runs run/__init__ first: both are above expressions
     assert upward(pkg) == {
         ("btgen_pytrees.expressions", "btgen_pytrees.run"),
@@ -312,7 +312,7 @@ def test_the_checks_see_what_hides_an_import(tmp_path: pathlib.Path) -> None:
         "run/_impl.py": "",
         "run/runner.py": "from . import _impl\nimport btgen_pytrees.clock as clock\nnow = clock._now\n",
         "clock.py": "",
-        "output.py": "from .run import _impl\n",
+        "writing.py": "from .run import _impl\n",
     }
     for name, text in files.items():
         (pkg / name).write_text(text)
@@ -321,7 +321,7 @@ def test_the_checks_see_what_hides_an_import(tmp_path: pathlib.Path) -> None:
     assert cycles(pkg) == {frozenset(leaves | systems)}
     assert private_names(pkg) == {
         ("btgen_pytrees.run.runner", "btgen_pytrees.clock", "_now"),
-        ("btgen_pytrees.output", "btgen_pytrees.run._impl", ""),
+        ("btgen_pytrees.writing", "btgen_pytrees.run._impl", ""),
     }
     assert function_level(pkg) == set()
 

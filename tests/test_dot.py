@@ -27,7 +27,7 @@ from btgen_pytrees.cli import main
 from btgen_pytrees.leaves.wiring import Trigger
 from btgen_pytrees.render import render
 from btgen_pytrees.render.dot import STYLES, GraphvizMissing, dot_source, graphviz_render
-from btgen_pytrees.render.info import annotation, node_info, role, walk
+from btgen_pytrees.render.nodes import annotation, node_info, role, walk
 from btgen_pytrees.timeline import timeline
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*deprecated.*:DeprecationWarning")  # pydot's parser on new pyparsing

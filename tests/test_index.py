@@ -16,7 +16,7 @@ from test_trace import scenarios, tick_like_the_runner, ticked_with_snapshots
 
 import btgen_pytrees
 from btgen_pytrees.clock import VirtualClock
-from btgen_pytrees.render.info import walk
+from btgen_pytrees.render.nodes import walk
 from btgen_pytrees.run import Collector, run
 from btgen_pytrees.run.index import TreeIndex
 

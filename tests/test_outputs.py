@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from btgen_pytrees import batch
-from btgen_pytrees.output import commit
+from btgen_pytrees.writing import commit
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FIG1 = ROOT / "examples" / "fig1.json"

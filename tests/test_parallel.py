@@ -14,7 +14,7 @@ import pytest
 from btgen_pytrees.errors import ExitCode, InvalidTestCase, Problem, UsageError, UserError
 from btgen_pytrees.leaves.plugins import PluginError
 from btgen_pytrees.contracts.registry import FactoryError
-from btgen_pytrees.output import OutputError
+from btgen_pytrees.writing import OutputError
 from btgen_pytrees.parallel import guard, process
 from btgen_pytrees.parallel.dask import DaskUnavailable
 from btgen_pytrees.parallel.shipping import ShippingError

@@ -28,7 +28,7 @@ from helpers import case, crit, entry
 import btgen_pytrees
 from btgen_pytrees.cli import main
 from btgen_pytrees.leaves import default_registry
-from btgen_pytrees.render.info import walk
+from btgen_pytrees.render.nodes import walk
 from btgen_pytrees.run import run
 from btgen_pytrees.run.replay import MAX_NODES, auto_depth, replay_html
 

@@ -20,9 +20,9 @@ from test_properties import timelines
 
 import btgen_pytrees
 from btgen_pytrees import cli
-from btgen_pytrees.output import commit
+from btgen_pytrees.writing import commit
 from btgen_pytrees.render import iter_json_tree, iter_text_tree, render, render_chunks, stream, text, tree_data
-from btgen_pytrees.render.info import annotation, symbol, walk
+from btgen_pytrees.render.nodes import annotation, symbol, walk
 from btgen_pytrees.timeline import matrix_lines
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent

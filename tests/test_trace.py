@@ -21,7 +21,7 @@ from py_trees.blackboard import Blackboard
 import btgen_pytrees
 from btgen_pytrees.clock import VirtualClock
 from btgen_pytrees.leaves import default_registry
-from btgen_pytrees.render.info import walk
+from btgen_pytrees.render.nodes import walk
 from btgen_pytrees.run import run
 from btgen_pytrees.run.trace import STATUSES, TraceRecorder
 

@@ -19,7 +19,7 @@ from test_fuzz import mutants
 from btgen_pytrees.leaves import default_registry
 from btgen_pytrees.load import case_validator, parse_json
 from btgen_pytrees.errors import InvalidTestCase
-from btgen_pytrees.validation import SchemaValidator
+from btgen_pytrees.validator import SchemaValidator
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 pytest.importorskip("fastjsonschema")

@@ -99,7 +99,7 @@ def test_png_of_a_500_entry_case_is_collapsed_readably_and_says_so(tmp_path: pat
     from pictures import timeline_case
 
     from btgen_pytrees.render.dot import PNG_MAX_NODES, png_depth
-    from btgen_pytrees.render.info import walk
+    from btgen_pytrees.render.nodes import walk
 
     source = tmp_path / "timeline_500.json"
     source.write_text(json.dumps(timeline_case()), encoding="utf-8")

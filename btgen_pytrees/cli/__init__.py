@@ -24,7 +24,7 @@ from typing import Any, Callable, Sequence
 from .. import __version__
 from ..errors import ExitCode, Interrupt, InvalidTestCase, UserError
 from ..leaves import loads_user_code
-from ..output import divert_stdout
+from ..writing import divert_stdout
 from ..parallel import Interrupted
 from ..supervise import supervised
 from . import falsify, run, schema, show, sweep, validate

@@ -9,7 +9,7 @@ from typing import Sequence
 
 from ..batch import output_names
 from ..errors import UsageError
-from ..output import check_target
+from ..writing import check_target
 
 __all__ = ["check_output", "check_out_dir", "make_out_dir", "targets"]
 

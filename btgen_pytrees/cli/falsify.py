@@ -25,7 +25,7 @@ from ..falsify.sampler import HINT, METHODS, available
 from ..falsify.search import Search
 from ..falsify.space import Space
 from ..load import validate
-from ..output import check_target, commit, emit
+from ..writing import check_target, commit, emit
 from ..parallel import Interrupted, progress_stream
 from ..run.plot import plot_format
 from ..load.sweep import load_sweep

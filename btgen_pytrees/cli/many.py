@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 from ..batch import expand
 from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
-from ..output import commit, emit
+from ..writing import commit, emit
 from ..parallel import Interrupted, Outcome, process, progress_stream, summary
 from .checks import make_out_dir
 from .terminal import err, problems

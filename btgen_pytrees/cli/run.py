@@ -16,7 +16,7 @@ from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
 from ..leaves import Registry, default_registry
 from ..load import MAX_FILE_BYTES, MAX_WORK, check_work, load_json, parse_json, validate
 from ..model import TestCase
-from ..output import check_distinct, commit, emit, is_direct, on_stdout, report_outputs
+from ..writing import check_distinct, commit, emit, is_direct, on_stdout, report_outputs
 from ..load.warnings import warning_lines
 from ..parallel import Outcome, merge_junit
 from ..progress import terminal_progress

@@ -8,7 +8,7 @@ from typing import Any
 
 from ..errors import ExitCode
 from ..load import schema_for
-from ..output import emit
+from ..writing import emit
 from .options import Parents, registry
 
 __all__ = ["add_parser", "cmd_schema"]

@@ -11,7 +11,7 @@ from ..batch import job_show
 from ..construct import generate
 from ..errors import ExitCode, UsageError
 from ..load import load, validate
-from ..output import commit, emit, is_direct, same_file, stdout_isatty
+from ..writing import commit, emit, is_direct, same_file, stdout_isatty
 from ..load.warnings import warning_lines
 from ..parallel import Outcome
 from ..render import FORMATS, JSON_INDENT_LIMIT, render_chunks

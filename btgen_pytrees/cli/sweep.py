@@ -21,7 +21,7 @@ from typing import Any, Mapping, Sequence
 from ..errors import ExitCode, UsageError, plural
 from ..leaves.plugins import is_path
 from ..load import system_spec
-from ..output import check_target, commit, emit, on_stdout, report_outputs
+from ..writing import check_target, commit, emit, on_stdout, report_outputs
 from ..parallel import Interrupted, progress_stream
 from ..parallel.dask import DaskExecutor, check_address, scheduler_address
 from ..run.plot import plot_format

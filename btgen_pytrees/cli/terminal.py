@@ -1,4 +1,4 @@
-"""Printing safely to a terminal: every text btgen_pytrees prints goes through here or :func:`~btgen_pytrees.output.emit`."""
+"""Printing safely to a terminal: every text btgen_pytrees prints goes through here or :func:`~btgen_pytrees.writing.emit`."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import sys
 from typing import Iterable, TextIO
 
 from ..errors import MAX_PROBLEMS, UNSAFE, ExitCode, InvalidTestCase, printable
-from ..output import emit, own_stdout
+from ..writing import emit, own_stdout
 from ..parallel import Outcome
 
 __all__ = ["can_encode", "err", "report_invalid", "problems", "stdout_text", "write_stdout"]
@@ -21,7 +21,7 @@ def can_encode(stream: TextIO, text: str = "·…") -> bool:
 
 
 def err(text: str) -> None:
-    """One line on stderr, escaped (:func:`~btgen_pytrees.output.emit`)."""
+    """One line on stderr, escaped (:func:`~btgen_pytrees.writing.emit`)."""
     emit(text + "\n", sys.stderr)
 
 

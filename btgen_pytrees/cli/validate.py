@@ -8,7 +8,7 @@ from typing import Any
 
 from .. import batch
 from ..errors import ExitCode, plural
-from ..output import emit
+from ..writing import emit
 from ..parallel import Interrupted, summary
 from .many import expand_files, process_files
 from .options import Parents

@@ -7,7 +7,7 @@
   which name (:class:`Registry`, :class:`LeafType`, :class:`FactoryError`)
 
 They import nothing of the project above the vocabulary modules (``errors``, ``model``, ``clock``,
-``validation``, ...): the leaves (:mod:`btgen_pytrees.leaves`) and systems
+``validator``, ...): the leaves (:mod:`btgen_pytrees.leaves`) and systems
 (:mod:`btgen_pytrees.systems`) that implement them sit above. The public names are re-exported
 where they are documented: ``btgen_pytrees.leaves`` (``Environment``, ``Registry``, ...) and
 ``btgen_pytrees.systems`` (``System``, ``SystemFailure``, ...).

@@ -26,7 +26,7 @@ import py_trees
 
 from ..errors import UserError, is_interrupt
 from ..model import Criterion, Entry
-from ..validation import SchemaValidator, shared_validator
+from ..validator import SchemaValidator, shared_validator
 from .environment import Environment
 from .system import SystemType
 

@@ -20,7 +20,7 @@ import math
 from typing import Any, Mapping, Sequence
 
 from ..load.variations import format_value, label
-from .search import Cluster, Run, Search
+from .search import Run, Search
 from .space import Space
 
 __all__ = ["report_data", "table", "failure_boxes", "baselines", "SCHEMA_VERSION"]

@@ -35,7 +35,7 @@ from ..errors import PathPart, Problem
 from ..leaves import Registry
 from ..contracts.registry import LeafType
 from ..model import DEFAULT_JOIN, EMPTY, Entry
-from ..validation import SchemaValidator
+from ..validator import SchemaValidator
 from .context import Checker, freeze
 from .read import NotStreamed
 from .schema import inline_refs, schema

@@ -8,7 +8,7 @@ from importlib import resources
 from typing import Any, Mapping
 
 from ..leaves import Registry, default_registry
-from ..validation import SchemaValidator
+from ..validator import SchemaValidator
 
 __all__ = ["schema_text", "schema", "schema_for", "inline_refs", "case_validator"]
 

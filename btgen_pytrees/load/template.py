@@ -24,7 +24,7 @@ from typing import Any, Iterator, Mapping
 
 from ..errors import InvalidTestCase, PathPart, Problem, by_place
 from ..text import did_you_mean, shorten
-from ..validation import SchemaValidator
+from ..validator import SchemaValidator
 from .parameters import REFERENCE, find_sites, substitute
 from .schema import inline_refs, schema
 from .variations import BLOCK_KEYS, RANGE_EPSILON, Point, Value, Variations, format_value, label

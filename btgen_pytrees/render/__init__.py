@@ -18,7 +18,7 @@ import py_trees
 from ..timeline import matrix_lines
 from .btcpp import format_btcpp
 from .dot import GraphvizMissing, format_dot, format_png, format_svg
-from .info import node_info
+from .nodes import node_info
 from .jsontree import JSON_INDENT_LIMIT, iter_json_tree, tree_data
 from .stream import chunked
 from .text import iter_text_tree, text_tree

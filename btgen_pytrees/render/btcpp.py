@@ -62,7 +62,7 @@ from py_trees.decorators import Decorator
 
 from ..errors import xml_safe
 from ..leaves.wiring import Completion, OrMember, RunStart, Trigger
-from .info import is_selected, policy_name, selected
+from .nodes import is_selected, policy_name, selected
 
 __all__ = ["btcpp_xml", "btcpp_document", "BtcppDocument", "port_value", "port_name", "port_names", "BUILTINS",
            "format_btcpp"]

@@ -45,7 +45,7 @@ from py_trees.decorators import Decorator
 
 from ..errors import UserError, printable, xml_safe
 from ..leaves.wiring import Trigger
-from .info import annotation, depth_for, is_selected, role, type_name, walk
+from .nodes import annotation, depth_for, is_selected, role, type_name, walk
 
 __all__ = [
     "dot_graph", "dot_source", "png_depth", "PNG_MAX_NODES", "graphviz_render", "GraphvizMissing", "GraphvizTimeout", "GRAPHVIZ_TIMEOUT", "IMAGE_FORMATS", "STYLES", "style_key",

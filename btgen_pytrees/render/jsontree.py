@@ -18,7 +18,7 @@ from typing import Any, Iterator
 
 import py_trees
 
-from .info import node_info, walk
+from .nodes import node_info, walk
 from .stream import chunked
 
 __all__ = ["iter_json_tree", "json_tree", "tree_data", "JSON_INDENT_LIMIT", "auto_indent"]

@@ -12,7 +12,7 @@ from typing import Iterator
 
 import py_trees
 
-from .info import annotation, symbol, walk
+from .nodes import annotation, symbol, walk
 from .stream import chunked
 
 __all__ = ["text_tree", "iter_text_tree"]

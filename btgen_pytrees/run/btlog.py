@@ -44,7 +44,7 @@ import py_trees
 
 from ..errors import xml_safe
 from ..render.btcpp import btcpp_document
-from ..render.info import walk
+from ..render.nodes import walk
 from .trace import RunTrace
 
 __all__ = ["btlog_bytes", "check_btlog", "parse_btlog", "Btlog", "BtlogError", "MAGIC", "MAX_UID", "MAX_TIME_US"]

@@ -40,7 +40,7 @@ from py_trees.common import Status
 from py_trees.decorators import Decorator
 
 from ..expressions import why_false
-from ..render.info import symbol, walk
+from ..render.nodes import symbol, walk
 
 __all__ = ["why_false", "explain", "status_tree", "TREE_LINES", "LINES_PER_KIND"]
 

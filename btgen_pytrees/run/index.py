@@ -3,7 +3,7 @@
 The two visitors of a run - the :class:`~btgen_pytrees.run.Collector` and the
 :class:`~btgen_pytrees.run.trace.TraceRecorder` - keep what they know about
 each node in flat arrays indexed by the node's pre-order number (root = 0, the
-order of :func:`~btgen_pytrees.render.info.walk`), so both need the number of
+order of :func:`~btgen_pytrees.render.nodes.walk`), so both need the number of
 every node a tick yields. That look-up is on the hot path of every tick: a dict
 keyed by ``id()`` works, but with a few hundred thousand nodes its slots are
 scattered over tens of megabytes and every look-up misses the processor's

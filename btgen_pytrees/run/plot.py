@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 from ..errors import plural, printable, shorten, xml_safe
 from ..expressions import bounds
 from ..model import TestCase
-from ..output import write_file
+from ..writing import write_file
 from .export import ordered_signals, select
 from .report import Report
 from .trace import ENDED
@@ -534,7 +534,7 @@ def figure_bytes(figure: Figure, fmt: str, title: str, text: str = "") -> bytes:
 def plot_run(report: Report, case: TestCase, path: str, signals: Sequence[str] | None = None) -> None:
     """Write the run picture of *report* to *path* (``.svg``, ``.png`` or ``.html``).
 
-    Written as every output is (:func:`btgen_pytrees.output.write_file`): complete or not at all,
+    Written as every output is (:func:`btgen_pytrees.writing.write_file`): complete or not at all,
     no temporary file left behind on failure, symlinks followed, devices written in place.
     """
     write_file(path, plot_bytes(report, case, plot_format(path), signals))

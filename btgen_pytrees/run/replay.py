@@ -44,7 +44,7 @@ from py_trees.composites import Sequence as PySequence
 from ..errors import plural
 from ..model import TestCase
 from ..render.dot import STYLES, style_key
-from ..render.info import annotation, depth_for, role, type_name, walk
+from ..render.nodes import annotation, depth_for, role, type_name, walk
 from .export import select
 from .report import Report
 from .trace import ENDED

@@ -12,7 +12,7 @@ time ``times[k]``):
   returns a new status, and when a node is stopped without being ticked (a
   Parallel that finishes halts its running children; a stopped composite resets
   its whole subtree). Nodes are numbered in pre-order (root = 0), the order of
-  :func:`~btgen_pytrees.render.info.walk`, so index *i* is graph node ``n<i>``
+  :func:`~btgen_pytrees.render.nodes.walk`, so index *i* is graph node ``n<i>``
   of the uncollapsed Graphviz view. Within a tick the changes keep their order;
   a leaf that starts and is halted on the same tick shows both. Every node is
   ``invalid`` before tick 0.
@@ -60,7 +60,7 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from ..leaves.wiring import TreeRoot, WakingParallel
-from ..render.info import role_of
+from ..render.nodes import role_of
 from .index import TreeIndex
 
 __all__ = ["RunTrace", "TraceNode", "TraceRecorder", "STATUSES", "DEFAULT_LIMIT", "ENDED"]

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any, Sequence
 
-from ..output import write_file
+from ..writing import write_file
 from ..run.plot import figure_bytes, plot_format
 from .report import VERDICTS, SweepReport
 from ..load.variations import format_value

@@ -18,7 +18,6 @@ import argparse
 import os
 import signal
 import sys
-from difflib import get_close_matches
 from typing import Any, Callable, Sequence
 
 from .. import __version__
@@ -27,6 +26,7 @@ from ..leaves import loads_user_code
 from ..writing import divert_stdout
 from ..parallel import Interrupted
 from ..supervise import supervised
+from ..text import did_you_mean
 from . import falsify, run, schema, show, sweep, validate
 from .options import MAX_JOBS, Parser, check_jobs, parents
 from .terminal import err, report_invalid
@@ -91,8 +91,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args_list and args_list[0] not in COMMANDS and not args_list[0].startswith("-"):
         word = args_list[0]
         if _looks_like_a_command(word):
-            hint = get_close_matches(word, COMMANDS, n=1)
-            err(f"btgen_pytrees: unknown command {word!r}" + (f" (did you mean {hint[0]!r}?)" if hint else
+            hint = did_you_mean(word, COMMANDS)
+            err(f"btgen_pytrees: unknown command {word!r}" + (hint or
                 f"; the commands are {', '.join(COMMANDS)}, or give a test case FILE to show it"))  # fmt: skip
             return ExitCode.INVALID
         args_list.insert(0, "show")

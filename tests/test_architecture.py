@@ -15,6 +15,7 @@ from __future__ import annotations
 import ast
 import functools
 import pathlib
+import tomllib
 from dataclasses import dataclass
 
 import networkx as nx
@@ -352,3 +353,14 @@ def literals() -> str:
 
 if __name__ == "__main__":
     print(literals())
+
+
+def test_every_package_is_installed() -> None:
+    """pyproject.toml's package list finds every package of the tree (a package it missed would be absent
+    from a wheel, while an editable install, which reads the tree, still imported it)."""
+    find_packages = pytest.importorskip("setuptools").find_packages
+    root = PACKAGE.parent
+    config = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]
+    found = set(find_packages(str(root), include=config["packages"]["find"]["include"]))
+    packages = {".".join(p.relative_to(root).parent.parts) for p in PACKAGE.rglob("__init__.py")}
+    assert packages and found == packages

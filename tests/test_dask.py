@@ -411,3 +411,18 @@ def test_a_scheduler_that_dies_mid_sweep_keeps_the_finished_rows(tmp_path: pathl
     assert f" {len(passed)} of 800 runs" in line
     assert {r["message"] for r in rows if r["verdict"] != "pass"} == {
         f"internal error: not run: the connection to the Dask scheduler at {address} was lost"}
+
+
+def test_a_file_that_cannot_be_read_says_the_same_on_the_cluster(cluster: Any, tmp_path: pathlib.Path) -> None:
+    """The client reads a batch's files for the cluster with the reader the local workers use."""
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    shutil.copy(ROOT / "examples" / "fig1.json", suite / "a_pass.json")
+    os.mkfifo(suite / "b_fifo.json")  # would block a reader that opened it
+    (suite / "c_big.json").write_bytes(b" " * (16 * 1024 * 1024 + 1))
+    local = cli("run", str(suite), "--jobs", "2")
+    dask = cli("run", str(suite), "--executor", "dask", "--scheduler", cluster.scheduler_address)
+    assert local.returncode == dask.returncode == 2
+    assert f"{suite}/b_fifo.json: /: not a regular file (a pipe or socket)" in dask.stderr
+    assert f"{suite}/c_big.json: /: file is 16777217 bytes; the limit is 16777216" in dask.stderr
+    assert local.stdout == dask.stdout and sorted(local.stderr.splitlines()) == sorted(dask.stderr.splitlines())

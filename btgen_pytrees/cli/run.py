@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import fnmatch
 import os
-import stat
 import sys
 from typing import Any, Callable, Sequence
 
@@ -14,7 +13,8 @@ from .. import batch
 from ..construct import generate
 from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
 from ..leaves import Registry, default_registry
-from ..load import MAX_FILE_BYTES, MAX_WORK, check_work, load_json, parse_json, validate
+from ..load import MAX_WORK, check_work, load_json, parse_json, validate
+from ..load.read import read_file
 from ..model import TestCase
 from ..writing import check_distinct, commit, emit, is_direct, on_stdout, report_outputs
 from ..load.warnings import warning_lines
@@ -237,7 +237,7 @@ def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequenc
                     plot: str | None, system: Any = None) -> tuple[Any, Callable[..., Outcome], Callable[[int], tuple[object, ...]]]:  # fmt: skip
     """``run FILE... --executor dask``: the cluster, the job and its arguments for the CLI's batch.
 
-    Each file is read here (with the loader's limits) and its bytes travel with
+    Each file is read here (:func:`~btgen_pytrees.load.read.read_file`, as the local workers read it) and its bytes travel with
     its task, so workers need no copy of the files; the files the cases name
     (SUMO configurations and their networks and routes) and the ``--plugin``
     files are sent to every worker once. The outputs come back as data and the
@@ -247,7 +247,7 @@ def dask_batch_args(args: argparse.Namespace, files: list[str], targets: Sequenc
     shipped: list[tuple[bytes | None, list[Problem], SystemSpec | None]] = []
     for path in files:
         try:
-            raw: bytes | None = _read(path)
+            raw: bytes | None = read_file(path)[0]
             problems: list[Problem] = []
         except InvalidTestCase as error:
             raw, problems = None, list(error.problems)
@@ -270,17 +270,3 @@ def _system_of(raw: bytes | None, path: str, system: SystemSpec | None) -> Syste
     except InvalidTestCase:
         return None
     return resolved_system(document, path, None)
-
-
-def _read(path: str) -> bytes:
-    """The file's bytes, with the loader's checks (size limit, no FIFOs) - read once, here."""
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO would block the open
-            raise InvalidTestCase([Problem((), "not a regular file", "json")], path)
-        with open(path, "rb") as fh:
-            raw = fh.read(MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise InvalidTestCase([Problem((), f"cannot read file: {exc.strerror or exc}", "json")], path) from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise InvalidTestCase([Problem((), f"file is larger than {MAX_FILE_BYTES} bytes", "limit")], path)
-    return raw

@@ -63,17 +63,18 @@ _WATCH = 1.0
 """Seconds between a waiting worker's checks that its parent is alive."""
 
 
-def _worker(conn: Connection) -> None:
+def _worker(conn: Connection, parent: int) -> None:
     """A worker process: run tasks from *conn* one at a time until told to stop.
 
     Ctrl-C reaches every process of the terminal's group: workers ignore it and
     let the parent decide (it stops them with SIGTERM, then SIGKILL). A parent
     that dies without a word (SIGKILL, the out-of-memory killer) is noticed while
     waiting for a task: forked workers hold their pipes' other ends, so no EOF
-    would ever come, and they would wait forever.
+    would ever come, and they would wait forever. *parent* is the parent's pid as the parent saw
+    it before forking: read in the child, it would already be the reaper's when the parent was killed
+    between the fork and the read, and the worker would never notice.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    parent = os.getppid()
     try:
         signal.signal(signal.SIGTERM, _stop)
         if hasattr(signal, "pthread_sigmask"):  # forked with them held (_signals_held): a SIGTERM waiting now stops it
@@ -115,7 +116,7 @@ class _Slot:
 
     def __init__(self, context: multiprocessing.context.BaseContext):
         self.conn, child = context.Pipe()
-        self.process = context.Process(target=_worker, args=(child,), daemon=True)
+        self.process = context.Process(target=_worker, args=(child, os.getpid()), daemon=True)
         self.process.start()
         child.close()
         self.task: int | None = None

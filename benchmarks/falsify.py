@@ -22,9 +22,9 @@ points), after checking that the equation gives every stored real run's
 verdict (:func:`declared_truth`).
 
 For each case and method, ``--seeds`` searches (default 20) with ``--budget``
-runs (default 200), ``--batch`` (default 8) and ``stop: first`` run in this
-process, one run after the other (the search is the same on any number of
-workers): the median runs to the first failure, the seeds that found one, the
+runs (default 200), ``--batch`` (default 1: the runs run in this process, one
+after the other, and ``falsify``'s batch is the number of runs that can run at
+once) and ``stop: first``: the median runs to the first failure, the seeds that found one, the
 search's own time (sampler, model, bookkeeping: everything but the runs) over
 the runs' time - after one untimed search has imported the optimiser
 libraries, a cost a process pays once (``import_s`` in ``--json``) - and for the
@@ -266,7 +266,7 @@ def _distance(name: str, search: Search, boundary: Any) -> float:
 # -- searches --------------------------------------------------------------------------------------------
 
 
-def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 8) -> dict[str, Any]:
+def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1) -> dict[str, Any]:
     sweep = _sweep(name)
     space = Space.of(sweep.variations)
     firsts, distances, own, runs_time = [], [], 0.0, 0.0
@@ -440,7 +440,7 @@ def table(rows: Sequence[dict[str, Any]], truths: dict[str, dict[str, Any]], bud
         ratio = f"{r['median'] / expected:.2f}" if expected else "-"
         cost = f"{100 * r['search_cost']:.1f} %" if r["search_cost"] is not None else "-"
         bound = f"{r['boundary_max']:.2f} ({r['boundary_points']} points)" if r["boundary_max"] is not None else "-"
-        lines.append(f"| {r['case']} | {r['method']} | {r.get('batch', 8)} | {r['median']:g} | {r['found']}/{r['seeds']} | {ratio} | {cost} | {bound} |")
+        lines.append(f"| {r['case']} | {r['method']} | {r.get('batch', 1)} | {r['median']:g} | {r['found']}/{r['seeds']} | {ratio} | {cost} | {bound} |")
     lines.append("")
     lines.append("| case | failing share | from | uniform random: median runs / found within budget | grid at the declared resolution: points / first failure |")
     lines.append("| --- | --- | --- | --- | --- |")
@@ -460,7 +460,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated methods")
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--budget", type=int, default=200)
-    parser.add_argument("--batch", type=int, default=8, help="runs asked and told together (the search's batch)")
+    parser.add_argument("--batch", type=int, default=1,
+                        help="runs asked and told together (default 1: the runs are in-process, one at a time, and falsify's batch is its worker count)")  # fmt: skip
     parser.add_argument("--truth", action="store_true", help="compute the ground-truth grids again and store them")
     parser.add_argument("--sumo-loop", action="store_true", help="also compare a SUMO run in a search with a bare libsumo loop")
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
@@ -486,7 +487,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     loop = sumo_loop() if args.sumo_loop else None
     if loop:
         text += sumo_loop_text(loop)
-    text += (f"\n{platform.python_implementation()} {platform.python_version()}, {platform.machine()}; in-process runs, one after the other; "
+    text += (f"\n{platform.python_implementation()} {platform.python_version()}, {platform.machine()}; in-process runs, one after the other, batch {args.batch}"
+             f"{' (one worker: the default)' if args.batch == 1 else ''}; "
              f"importing the optimiser libraries took {import_s:.2f} s once\n")  # fmt: skip
     sys.stdout.write(text)
     if args.json:

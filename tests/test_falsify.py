@@ -154,15 +154,34 @@ def test_without_the_extra_falsify_says_which_to_install(tmp_path: pathlib.Path)
 
 @pytest.mark.parametrize("method", ["gp", "cmaes", "tpe", "sobol", "random"])
 def test_same_seed_same_search_byte_for_byte_whatever_the_workers(tmp_path: pathlib.Path, method: str) -> None:
+    """A batch given: the same search on one worker or two."""
     outs = []
     for jobs in ("1", "2", "2"):
         target = tmp_path / f"{jobs}-{len(outs)}.json"
-        main(["falsify", str(ISLAND), "--method", method, "--budget", "40", "--seed", "5", "--jobs", jobs, "--json", str(target)])
+        main(["falsify", str(ISLAND), "--method", method, "--budget", "40", "--seed", "5", "--batch", "4", "--jobs", jobs, "--json", str(target)])
         outs.append(json.dumps(without_wall(target.read_text()), indent=2))
     assert outs[0] == outs[1] == outs[2]
     other = tmp_path / "other.json"
-    main(["falsify", str(ISLAND), "--method", method, "--budget", "40", "--seed", "6", "--jobs", "1", "--json", str(other)])
+    main(["falsify", str(ISLAND), "--method", method, "--budget", "40", "--seed", "6", "--batch", "4", "--jobs", "1", "--json", str(other)])
     assert json.dumps(without_wall(other.read_text()), indent=2) != outs[0]
+
+
+@pytest.mark.parametrize("method", ["gp", "cmaes"])
+def test_the_default_batch_is_the_worker_count_and_every_batch_is_deterministic(tmp_path: pathlib.Path, method: str) -> None:
+    """Without --batch or search.batch the batch is --jobs (a seed and a worker count give the same
+    search); any other batch is as deterministic, whatever the workers."""
+    def search(*args: str) -> dict[str, Any]:
+        target = tmp_path / "f.json"
+        main(["falsify", str(ISLAND), "--method", method, "--budget", "40", "--seed", "5", *args, "--json", str(target)])
+        return without_wall(target.read_text())
+
+    one, two, two_again = search("--jobs", "1"), search("--jobs", "2"), search("--jobs", "2")
+    assert (one["batch"], two["batch"]) == (1, 2)
+    assert two == two_again
+    assert one["runs"] != two["runs"]  # another batch, another search
+    three = [search("--batch", "3", "--jobs", jobs) for jobs in ("1", "2", "2")]
+    assert three[0]["batch"] == 3 and three[0] == three[1] == three[2]
+    assert three[0]["runs"] != two["runs"]
 
 
 # -- margins -----------------------------------------------------------------------------------------
@@ -248,7 +267,7 @@ def test_the_gp_finds_the_island_in_its_second_batch() -> None:
     found = {}
     for method in ("gp", "sobol"):
         for seed in range(5):
-            settings = Settings(method=method, seed=seed, budget=16, stop="first")
+            settings = Settings(method=method, seed=seed, budget=16, batch=8, stop="first")
             found[method, seed] = Search(Space.of(sweep.variations), sweep.defaults, settings, evaluate, {"others": ("&&", ["F1"])}).run().first_failure
     assert all(found["gp", seed] is not None and found["gp", seed] <= 16 for seed in range(5)), found
     assert not any(found["sobol", seed] for seed in range(5)), found
@@ -346,8 +365,9 @@ def test_on_a_dask_local_cluster_the_search_is_the_local_pools(tmp_path: pathlib
     local = cli(*args, "--jobs", "2", "--json", str(tmp_path / "l.json"))
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                       silence_logs=logging.CRITICAL) as cluster:  # fmt: skip
-        remote = cli(*args, "--executor", "dask", "--scheduler", cluster.scheduler_address, "--json", str(tmp_path / "d.json"))
+        remote = cli(*args, "--executor", "dask", "--scheduler", cluster.scheduler_address, "--jobs", "1", "--json", str(tmp_path / "d.json"))
     assert remote.returncode == local.returncode == 1, remote.stderr
+    assert json.loads((tmp_path / "d.json").read_text())["batch"] == 2  # the cluster's two workers, not --jobs
     assert without_wall((tmp_path / "d.json").read_text()) == without_wall((tmp_path / "l.json").read_text())
     assert remote.stdout == local.stdout
 

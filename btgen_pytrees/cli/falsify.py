@@ -46,7 +46,7 @@ def add_parser(sub: Any, parents: Parents) -> None:
     parser.add_argument("--method", choices=METHODS, help="search method (default: the file's search.method, else auto)")
     parser.add_argument("--budget", type=int, metavar="N", help="most runs (default: search.budget, else 200)")
     parser.add_argument("--seed", type=int, metavar="S", help="seed of the search (default: search.seed, else 0)")
-    parser.add_argument("--batch", type=int, metavar="N", help="runs asked and run together (default: search.batch, else 8)")
+    parser.add_argument("--batch", type=int, metavar="N", help="runs asked and run together (default: search.batch, else the runs that can run at once: --jobs, or the Dask cluster's workers)")
     parser.add_argument("--stop", choices=("first", "all"), help="first: stop after the first failure's cluster is shrunk and bounded; all (default): search to the end of the budget")
     parser.add_argument("--json", metavar="REPORT", help="write the search as JSON (schemas/falsify.schema.json)")
     parser.add_argument("--plot", metavar="PATH", help="draw convergence and the parameter space coloured by margin (.svg/.png; needs the 'plot' extra)")
@@ -88,7 +88,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         raise UsageError(HINT)
     sweep = load(args)
     criteria = {c.get("id") for c in (sweep.template.get("oracle") or {}).get("criteria", []) if isinstance(c, dict)}
-    settings = settings_of(sweep.search, vars(args), {c for c in criteria if isinstance(c, str)}, sweep.source)
+    criteria_ids = {c for c in criteria if isinstance(c, str)}
+    settings = settings_of(sweep.search, vars(args), criteria_ids, sweep.source, args.jobs)  # refused before connecting
     check_outputs(args)
     if args.plot:  # a bad suffix or a missing extra: refused before anything runs
         try:
@@ -101,6 +102,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     known = registry(args)
     groups = groups_of(validate(concrete_case(sweep, {}), sweep.source, known))
     executor = make_executor(args)
+    if executor is not None:  # the batch follows the cluster's workers, as it follows --jobs locally
+        settings = settings_of(sweep.search, vars(args), criteria_ids, sweep.source, executor.workers())
     stream = progress_stream()
     evaluate = evaluator(sweep, run_options(args), args.jobs, executor)
     search = Search(space, sweep.defaults, settings, evaluate, groups, progress_line(stream) if stream else None)

@@ -33,9 +33,12 @@ def _bad(path: tuple[Any, ...], message: str) -> Problem:
     return Problem(("search", *path), message, "parameter")
 
 
-def settings_of(block: Mapping[str, Any] | None, options: Mapping[str, Any], criteria: set[str], source: str) -> Settings:
+def settings_of(block: Mapping[str, Any] | None, options: Mapping[str, Any], criteria: set[str], source: str,
+                workers: int = 1) -> Settings:  # fmt: skip
     """The search's settings: the file's ``search`` block (its schema was checked), the *options*
-    (``budget``, ``method``, ``seed``, ``batch``, ``stop``, ``start``; None: not given) winning.
+    (``budget``, ``method``, ``seed``, ``batch``, ``stop``, ``start``; None: not given) winning. The
+    batch neither gives is *workers*, the number of runs that can run at once (``--jobs``, a Dask
+    cluster's workers), so a seed and a worker count give the same search.
 
     Raises:
         InvalidTestCase: a ``scale`` names no criterion.
@@ -53,6 +56,7 @@ def settings_of(block: Mapping[str, Any] | None, options: Mapping[str, Any], cri
     pick = {k: (options.get(k) if options.get(k) is not None else block.get(k))
             for k in ("budget", "method", "seed", "batch", "stop", "start")}  # fmt: skip
     given = {k: v for k, v in pick.items() if v is not None}
+    given.setdefault("batch", max(1, workers))
     return Settings(scale=dict(block.get("scale", {})), **given)
 
 

@@ -49,12 +49,14 @@ FAILING = ("fail", "timeout", "error")
 
 @dataclass(frozen=True)
 class Settings:
-    """What the ``search`` block and the options set (options win)."""
+    """What the ``search`` block and the options set (options win). ``batch`` defaults to the number of
+    runs that can run at once: 1 for a search run in-process (the command gives its worker count,
+    :func:`~btgen_pytrees.falsify.cases.settings_of`)."""
 
     budget: int = 200
     method: str = "auto"
     seed: int = 0
-    batch: int = 8
+    batch: int = 1
     stop: str = "all"
     start: int | None = None
     scale: Mapping[str, float] = field(default_factory=dict)

@@ -201,6 +201,12 @@ class DaskExecutor(Executor):
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def workers(self) -> int:
+        """How many runs the cluster runs at once: its worker processes now (each runs one task at a
+        time, whatever its threads; at least 1)."""
+        self.connect()
+        return max(1, len(self._client.scheduler_info().get("workers", {})))
+
     def map_unordered(self, calls: Sequence[Callable[[], Any]]) -> Iterator[tuple[int, Any]]:
         from distributed import as_completed
 
@@ -210,7 +216,7 @@ class DaskExecutor(Executor):
         client = self._client
         futures: list[Any] = []
         try:
-            workers = max(1, len(client.scheduler_info().get("workers", {})))
+            workers = self.workers()
             size = self.chunk or max(1, min(MAX_CHUNK, math.ceil(len(calls) / (workers * CHUNKS_PER_WORKER))))
             pairs = list(enumerate(calls))
             chunks = [pairs[start:start + size] for start in range(0, len(pairs), size)]

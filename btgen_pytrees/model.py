@@ -13,12 +13,9 @@ from typing import Any, Mapping
 
 from .expressions import Expression
 
-__all__ = ["Entry", "Criterion", "TestCase", "SystemSpec", "label", "BEHAVIOR", "CONSTRAINT", "CRITERION_TYPES", "DEFAULT_TICK",
+__all__ = ["Entry", "Criterion", "TestCase", "SystemSpec", "label", "DEFAULT_TICK",
            "DEFAULT_TIMEOUT", "DEFAULT_JOIN", "tick_count"]
 
-BEHAVIOR = "behavior"
-CONSTRAINT = "constraint"
-CRITERION_TYPES = ("record", "period", "final")
 EMPTY: Mapping[str, Any] = MappingProxyType({})
 
 DEFAULT_TICK = 0.1

@@ -50,7 +50,7 @@ from typing import Any, Callable, Iterator, Sequence
 from ..errors import UserError
 from .shipping import Files, install
 
-__all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "SchedulerLost", "TaskFailed", "scheduler_address",
+__all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "TaskFailed", "scheduler_address",
            "check_address", "run_chunk", "CHUNKS_PER_WORKER", "MAX_CHUNK"]  # fmt: skip
 
 CHUNKS_PER_WORKER = 8
@@ -64,14 +64,6 @@ HINT = "--executor dask needs dask and distributed: pip install 'btgen_pytrees[d
 
 class DaskUnavailable(UserError, RuntimeError):
     """The cluster cannot be used (extra not installed, scheduler unreachable); ``str()`` says why."""
-
-
-class SchedulerLost(RuntimeError):
-    """The connection to the scheduler broke during the run; ``done`` calls had finished, ``str()`` says what happened."""
-
-    def __init__(self, message: str, done: int):
-        super().__init__(message)
-        self.done = done
 
 
 class TaskFailed(Exception):

@@ -60,7 +60,7 @@ WRAP = 44
 """Label lines are wrapped near this many characters, so long params do not make huge nodes."""
 
 STYLES: dict[str, dict[str, Any]] = {
-    # leaves, by role (see :func:`.info.role`)
+    # leaves, by role (see :func:`.nodes.role`)
     "behavior": {"shape": "box", "style": "rounded,filled", "fillcolor": "#9ecae1"},
     "constraint": {"shape": "hexagon", "style": "filled", "fillcolor": "#cbc9e2"},
     "oracle": {"shape": "note", "style": "filled", "fillcolor": "#a1d99b"},
@@ -129,7 +129,7 @@ def style_key(node: py_trees.behaviour.Behaviour) -> str:
 
 
 def _label(node: py_trees.behaviour.Behaviour) -> str:
-    """Name on the first line, then :func:`.info.annotation` (with the composite's type)."""
+    """Name on the first line, then :func:`.nodes.annotation` (with the composite's type)."""
     note = annotation(node)
     if role(node) == "composite" and isinstance(node, (Parallel, Sequence, Selector)):
         note = f"{type_name(node)}: {note}" if note else type_name(node)

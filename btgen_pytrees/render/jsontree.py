@@ -2,7 +2,7 @@
 
 ``json.dumps(tree_data(root))`` would first build a dict per node (more memory
 than the text it becomes) and then one string of the whole tree. This view
-encodes each node's :func:`~.info.node_info` on its own and writes the
+encodes each node's :func:`~.nodes.node_info` on its own and writes the
 ``children`` brackets around them while it walks the tree, so what it holds is
 the path from the root to the current node, and its output is byte for byte
 what ``json.dumps`` gives for :func:`tree_data` with the same options (a test
@@ -21,7 +21,7 @@ import py_trees
 from .nodes import node_info, walk
 from .stream import chunked
 
-__all__ = ["iter_json_tree", "json_tree", "tree_data", "JSON_INDENT_LIMIT", "auto_indent"]
+__all__ = ["iter_json_tree", "tree_data", "JSON_INDENT_LIMIT", "auto_indent"]
 
 JSON_INDENT_LIMIT = 2_000
 """Largest tree (in nodes) whose JSON view is indented by default.
@@ -34,7 +34,7 @@ levels deep, is 48 MB of mostly spaces (2.4 MB compact). Larger trees are writte
 
 
 def tree_data(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
-    """The tree as nested data: :func:`~.info.node_info` plus ``children`` (built without recursion)."""
+    """The tree as nested data: :func:`~.nodes.node_info` plus ``children`` (built without recursion)."""
     made: dict[int, dict[str, Any]] = {}
     top: dict[str, Any] = {}
     for _, node in walk(root):
@@ -67,9 +67,6 @@ def iter_json_tree(root: py_trees.behaviour.Behaviour, indent: int | None | str 
     return chunked(_pieces(root, indent))
 
 
-def json_tree(root: py_trees.behaviour.Behaviour, indent: int | None | str = "auto") -> str:
-    """The whole of :func:`iter_json_tree` as one string."""
-    return "".join(iter_json_tree(root, indent))
 
 
 def _pieces(root: py_trees.behaviour.Behaviour, indent: int | None | str) -> Iterator[str]:

@@ -3,8 +3,9 @@
 A sweep is loaded and checked by :mod:`btgen_pytrees.load` (the template, the blocks and every
 variation, :func:`~btgen_pytrees.load.sweep.load_sweep`); this package runs it:
 
-* :mod:`.jobs` - a worker's job for one variation
-* :mod:`.command` - the commands ``run`` and ``expand`` of a sweep
+* :mod:`.jobs` - a worker's job for one variation (and a chunk of them)
+* :mod:`.runs` - the variations run on the local pool or a Dask cluster, made into the sweep's report
+* :mod:`.overrides` - one variation chosen on the command line (``--set``, ``--params``)
 * :mod:`.report`, :mod:`.plot` - the result and the verdict map
 """
 

@@ -24,15 +24,14 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any, Sequence
 
-from ..writing import write_file
-from ..run.plot import figure_bytes, plot_format
+from ..run.plot import figure_bytes
 from .report import VERDICTS, SweepReport
 from ..load.variations import format_value
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["map_figure", "map_bytes", "plot_sweep", "axes_of", "VERDICT_COLOURS"]
+__all__ = ["map_figure", "map_bytes", "axes_of", "VERDICT_COLOURS"]
 
 VERDICT_COLOURS = {"pass": "#31a354", "fail": "#d62728", "timeout": "#fd8d3c", "error": "#969696"}
 _MARKS = {"fail": "x", "timeout": "T", "error": "E"}
@@ -204,8 +203,4 @@ def map_bytes(report: SweepReport, fmt: str) -> bytes:
     """The map as ``svg``, ``png`` or ``html`` bytes (same report, same bytes)."""
     return figure_bytes(map_figure(report), fmt, f"{report.test}: {report.verdict}", report.summary())
 
-
-def plot_sweep(report: SweepReport, path: str) -> None:
-    """Write the verdict map to *path* (``.svg``, ``.png`` or ``.html``)."""
-    write_file(path, map_bytes(report, plot_format(path)))
 

@@ -13,7 +13,6 @@ run without it ends with a message saying how to install it. See docs/sumo.md.
 from __future__ import annotations
 
 import importlib.util
-import os
 import re
 import sys
 from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping
@@ -158,9 +157,4 @@ SUMO = SumoType()
 """The ``sumo`` system type, as registered."""
 
 
-def config_path(case_source: str, config: str) -> str:
-    """*config* resolved relative to the directory of the case file *case_source*."""
-    return os.path.join(os.path.dirname(os.path.abspath(case_source)), config)
-
-
-__all__ += ["INSTALL_HINT", "config_path"]
+__all__ += ["INSTALL_HINT"]

@@ -30,7 +30,7 @@ checked again, exactly as the first time.
 
 The result is a :class:`Scenario`; problems are plain strings here and become
 :class:`~btgen_pytrees.errors.Problem` s with the case's JSON path in
-:mod:`.system_type`.
+:mod:`btgen_pytrees.systems.sumo` (its `SumoType`).
 """
 
 from __future__ import annotations

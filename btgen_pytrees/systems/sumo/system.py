@@ -68,7 +68,6 @@ LOOKAHEAD = 1000.0
 """Metres ahead in which a vehicle's leader counts (``V.gap`` and ``V.ttc`` are inf beyond; SUMO itself
 reports a leader further ahead on the same lane)."""
 
-_ALWAYS = ("present", "collided", "lane")
 _MOTION = ("speed", "accel", "x", "y", "lateral", "distance", "gap", "ttc")
 _INF = math.inf
 

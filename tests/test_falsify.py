@@ -273,6 +273,24 @@ def test_the_gp_finds_the_island_in_its_second_batch() -> None:
     assert not any(found["sobol", seed] for seed in range(5)), found
 
 
+def test_the_gp_start_runs_the_boxs_opposite_corners_then_sobol_points(tmp_path: pathlib.Path) -> None:
+    """The gp method's start on a 2-parameter box: 4 runs (1 per parameter, at least 4), the first two
+    every parameter at its low end, then at its high end; a failure at a corner is the first run."""
+    data = island()
+    box = data["variations"]
+    low = {k: v["from"] for k, v in box.items()}
+    high = {k: v["to"] for k, v in box.items()}
+    main(["falsify", write(tmp_path, data), "--budget", "40", "--jobs", "1", "--json", str(tmp_path / "f.json")])
+    runs = json.loads((tmp_path / "f.json").read_text())["runs"]
+    assert [r["phase"] for r in runs[:5]] == ["start"] * 4 + ["search"]
+    assert runs[0]["parameters"] == low and runs[1]["parameters"] == high
+    assert all(r["parameters"][k] not in (low[k], high[k]) for r in runs[2:4] for k in box)  # Sobol points inside
+    corner = island(oracle={"criteria": [{"id": "F1", "type": "final", "expect": "x + y >= 0.5"}]})  # fails at (0, 0) only
+    assert main(["falsify", write(tmp_path, corner, "corner.json"), "--budget", "40", "--jobs", "1", "--stop", "first",
+                 "--json", str(tmp_path / "c.json")]) == 1  # fmt: skip
+    assert json.loads((tmp_path / "c.json").read_text())["first_failure"] == 1
+
+
 def test_criteria_without_a_gradient_leave_the_search_space_filling(tmp_path: pathlib.Path) -> None:
     data = island()
     # a comparison of booleans: its margin is 0 wherever the run passes (like a collision count)

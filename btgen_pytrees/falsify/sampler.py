@@ -4,7 +4,8 @@ library and Optuna's samplers.
 Every method but ``random`` starts with a *space-filling* stage: a scrambled
 Sobol sequence over the unit box (:mod:`.space`; SciPy's ``qmc.Sobol``, the
 sequence Optuna's ``QMCSampler`` draws, without its cost per point), so the
-first runs cover the box evenly and give the objective's scale. Then:
+first runs cover the box evenly and give the objective's scale (``gp``'s start
+runs the box's two opposite corners first, when it has at least 4 runs). Then:
 
 * ``gp`` - a Gaussian-process model of the objective (:mod:`.surrogate`),
   refitted after every batch; each batch is the quadratic model's minimum
@@ -132,6 +133,7 @@ class Sampler:
 
             self._sobol = qmc.Sobol(d=len(space.dimensions), scramble=True, seed=seed)
         self._stage = "start" if self.start else self.method
+        self._extremes = self._corners() if self.method == "gp" and self.start >= 4 else []
         self._rng = numpy.random.default_rng(seed)
         self._cma: Any = None
         self._queue: list[list[float]] = []
@@ -174,6 +176,8 @@ class Sampler:
                 elif self._stage == "cmaes":
                     x = self._cma.ask()
                     self._asked.append(("cma", x, self._with_choices(x)))
+                elif self._stage == "start" and self._extremes:  # the box's extreme points first
+                    self._asked.append(("sobol", None, self._extremes.pop(0)))
                 elif self._stage in ("start", "sobol"):  # the start, or the Sobol sequence on
                     self._asked.append(("sobol", None, self._sobol_point()))
                 else:
@@ -239,6 +243,12 @@ class Sampler:
             self.restarts += 1
         elif stage == "cmaes":
             self._new_cma(SIGMA0)
+
+    def _corners(self) -> list[list[float]]:
+        """The box's two opposite corners: every parameter at its low end, then every one at its high
+        end (a list parameter: its first choice, then its last)."""
+        dims = self.space.dimensions
+        return [[0.0] * len(dims), [1.0 if d.continuous else float(len(d.choices) - 1) for d in dims]]
 
     def _sobol_point(self) -> list[float]:
         """The next point of the scrambled Sobol sequence (a list parameter: its choice at that fraction)."""

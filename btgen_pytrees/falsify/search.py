@@ -62,11 +62,11 @@ class Settings:
     scale: Mapping[str, float] = field(default_factory=dict)
 
     def start_runs(self, space: Space, method: str | None = None) -> int:
-        """Space-filling runs first: ``start``, else (within a quarter of the budget) 2 per parameter and
-        at least 8 for the ``gp`` method (the model explores by itself), 4 per parameter for the others;
-        a whole number of batches."""
+        """Space-filling runs first: ``start``, else (within a quarter of the budget) 1 per parameter and
+        at least 4 for the ``gp`` method (the model explores by itself; the box's two opposite corners
+        among them), 4 per parameter for the others; a whole number of batches."""
         d = len(space.dimensions)
-        default = max(8, 2 * d) if resolve_method(method or self.method, space) == "gp" else 4 * d
+        default = max(4, d) if resolve_method(method or self.method, space) == "gp" else 4 * d
         n = self.start if self.start is not None else max(self.batch, min(default, self.budget // 4))
         return self.batch * max(1, math.ceil(n / self.batch))
 

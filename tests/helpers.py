@@ -47,3 +47,21 @@ def generate(data: dict[str, Any], **kw: Any):  # type: ignore[no-untyped-def]
 
 def run_case(data: dict[str, Any], **kw: Any):  # type: ignore[no-untyped-def]
     return run(btgen_pytrees.load(data), **kw)
+
+
+def broken_registry() -> Any:
+    """The default registry plus ``broken``, a leaf whose update() raises ``RuntimeError("motor driver offline")``."""
+    import py_trees
+
+    from btgen_pytrees.leaves import default_registry
+
+    class Broken(py_trees.behaviour.Behaviour):
+        def __init__(self, e: Any, env: Any) -> None:
+            super().__init__(name=e.name)
+
+        def update(self) -> py_trees.common.Status:
+            raise RuntimeError("motor driver offline")
+
+    registry = default_registry()
+    registry.register("broken", Broken)
+    return registry

@@ -9,7 +9,7 @@ from typing import Any
 import jsonschema
 import py_trees
 import pytest
-from helpers import case, crit, entry, generate, run_case
+from helpers import broken_registry, case, crit, entry, generate, run_case
 
 import btgen_pytrees
 from btgen_pytrees.clock import VirtualClock
@@ -259,17 +259,7 @@ def test_a_leaf_s_timeout_is_written_once_in_simulated_leaf() -> None:
 
 
 def test_a_leaf_that_raises_gives_verdict_error_not_a_traceback() -> None:
-    from btgen_pytrees.leaves import default_registry
-
-    class Broken(py_trees.behaviour.Behaviour):
-        def __init__(self, e: Any, env: Any) -> None:
-            super().__init__(name=e.name)
-
-        def update(self) -> py_trees.common.Status:
-            raise RuntimeError("motor driver offline")
-
-    registry = default_registry()
-    registry.register("broken", Broken)
+    registry = broken_registry()
     report = run(btgen_pytrees.load(case(entry("A"), entry("B", ["A"], action="broken")), registry=registry), registry=registry)
     assert (report.verdict, report.duration, report.message) == ("error", 1.0, "B raised RuntimeError: motor driver offline")
     assert [(e.status, e.start, e.end) for e in report.execute] == [("success", 0.0, 1.0), ("error", 1.0, 1.0)]

@@ -10,7 +10,7 @@ from typing import Any
 
 import jsonschema
 import pytest
-from helpers import case, crit, entry, run_case
+from helpers import broken_registry, case, crit, entry, run_case
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -197,20 +197,9 @@ def test_require_complete_applies_to_a_batch(tmp_path: pathlib.Path) -> None:
 def test_a_run_that_erred_is_an_error_in_junit_the_table_json_and_the_trace(tmp_path: pathlib.Path) -> None:
     """A leaf that raises: JUnit <error> (never <failure>), the table's execute row and the entry say error."""
     import btgen_pytrees
-    import py_trees
-
-    from btgen_pytrees.leaves import default_registry
     from btgen_pytrees.run import run
 
-    class Broken(py_trees.behaviour.Behaviour):
-        def __init__(self, e: Any, env: Any) -> None:
-            super().__init__(name=e.name)
-
-        def update(self) -> py_trees.common.Status:
-            raise RuntimeError("motor driver offline")
-
-    registry = default_registry()
-    registry.register("broken", Broken)
+    registry = broken_registry()
     data = case(entry("A", duration=0.5), entry("B", ["A"], action="broken"), entry("C", duration=2),
                 criteria=[crit("R1", "record", "x <= 1")], signals={"x": 0})  # fmt: skip
     lines: list[str] = []

@@ -34,13 +34,15 @@ half the width of the pass/fail pair, an upper bound, since the boundary lies
 between a real passing and a real failing run).
 
 ``--sumo-loop`` compares a SUMO run inside a search (validate + run, exactly as the
-search's job does it) with the same setting run by a bare libsumo loop written by hand
-(:func:`bare_run`: start, set speeds, step, change lane, read the gap, close - the same
-SUMO steps, counted and printed), both measured in this process, interleaved run by
-run, medians over 20 settings x 5 rounds (wall clock, and CPU time of this process: SUMO
-runs in it); also the bare loop alone run after run, started and closed against started
-once and reloaded with ``libsumo.load`` (libsumo's load is its close plus its start: the
-two cost the same), and where the search's run spends its time.
+search's job does it, in a ``reuse_simulations`` block as a worker's chunk and an in-process
+search run it: SUMO started once, set back to time 0 between runs) with the same setting run by
+a bare libsumo loop written by hand (:func:`bare_run`: start, set speeds, step, change lane,
+read the gap, close - the same SUMO steps, counted and printed), both measured in this process
+in blocks of 20 settings taking turns (libsumo runs one simulation per process: a kept one and
+the bare loop cannot alternate run by run), medians over 20 settings x 5 rounds (wall clock,
+and CPU time of this process: SUMO runs in it); also the search's runs each starting SUMO (as
+before the reuse), the bare loop started once and reloaded with ``libsumo.load`` (libsumo's load
+is its close plus its start: the two cost the same), and where the search's run spends its time.
 """
 
 from __future__ import annotations
@@ -66,6 +68,7 @@ from btgen_pytrees.falsify.margins import groups_of, row_margins  # noqa: E402
 from btgen_pytrees.falsify.sampler import available  # noqa: E402
 from btgen_pytrees.sweep.jobs import RunOptions  # noqa: E402
 from btgen_pytrees.sweep import load_sweep  # noqa: E402
+from btgen_pytrees.systems.sumo import reuse_simulations  # noqa: E402
 
 __all__ = ["main", "CASES", "truth", "declared_truth", "island_margin", "case_path", "search_case", "GOALS"]
 
@@ -340,7 +343,8 @@ def bare_run(libsumo: Any, args: list[str], v: dict[str, Any], reload: bool = Fa
 
 
 def _breakdown(sweep: Any, v: dict[str, Any]) -> dict[str, float]:
-    """One run of the search's job taken apart (s): validation, system and tree, SUMO's start/close and
+    """One run of the search's job taken apart (s): validation, system and tree, SUMO's start (or its
+    restore from the snapshot, in a :func:`reuse_simulations` block) and close (or keeping it), SUMO's
     steps, the adapter, and the rest of the run (the tree's ticks, the collector)."""
     from btgen_pytrees.construct import generate
     from btgen_pytrees.run import create_system, run_tree
@@ -364,7 +368,13 @@ def _breakdown(sweep: Any, v: dict[str, Any]) -> dict[str, float]:
 
 def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
     """cut_in_3d's run inside a search (validate + run, as the search's job does it) against the same
-    settings in a bare libsumo loop (:func:`bare_run`), interleaved run by run; medians per run."""
+    settings in a bare libsumo loop (:func:`bare_run`, started and closed per run); medians per run.
+
+    libsumo is one simulation per process, so a simulation kept open between the search's runs
+    (:func:`reuse_simulations`, as a worker's chunk and an in-process search run them) and the bare
+    loop cannot take turns run by run: each round runs the 20 settings as four blocks - the bare loop,
+    the search's runs with the simulation kept (the block's first run starts SUMO and takes the
+    snapshot), the search's runs each starting SUMO, the bare loop reloading with ``libsumo.load``."""
     import random
 
     import libsumo
@@ -377,55 +387,69 @@ def sumo_loop(points: int = 20, rounds: int = 5) -> dict[str, Any]:
     wall, cpu = time.perf_counter, time.process_time
     bare_run(libsumo, args, values[0])  # warm-up (imports, caches)
     _row(sweep, values[0])
-    times: dict[str, list[float]] = {k: [] for k in ("search", "bare", "bare_block", "bare_load", "search_cpu", "bare_cpu")}
+    names = ("search", "search_fresh", "bare", "bare_load")
+    times: dict[str, list[float]] = {k: [] for k in names}
+    cpus: dict[str, list[float]] = {k: [] for k in names}
     steps = {"search": 0, "bare": 0}
+
+    def clock(name: str, run: Callable[[], Any]) -> Any:
+        t0, c0 = wall(), cpu()
+        out = run()
+        times[name].append(wall() - t0)
+        cpus[name].append(cpu() - c0)
+        return out
+
     for r in range(rounds):
         for v in values:
-            t0, c0 = wall(), cpu()
-            n = bare_run(libsumo, args, v)
-            t1, c1 = wall(), cpu()
-            row = _row(sweep, v)
-            t2, c2 = wall(), cpu()
-            times["bare"].append(t1 - t0)
-            times["search"].append(t2 - t1)
-            times["bare_cpu"].append(c1 - c0)
-            times["search_cpu"].append(c2 - c1)
-            if r == 0:
-                steps["bare"] += n
-                steps["search"] += row["ticks"]
-        for v in values:  # the bare loop alone, run after run: started and closed ...
-            t0 = wall()
-            bare_run(libsumo, args, v)
-            times["bare_block"].append(wall() - t0)
-        libsumo.start(args)  # ... and started once, reloaded per run
+            n = clock("bare", lambda: bare_run(libsumo, args, v))
+            steps["bare"] += n if r == 0 else 0
+        with reuse_simulations():
+            for v in values:
+                row = clock("search", lambda: _row(sweep, v))
+                steps["search"] += row["ticks"] if r == 0 else 0
         for v in values:
-            t0 = wall()
-            bare_run(libsumo, args, v, reload=True)
-            times["bare_load"].append(wall() - t0)
+            clock("search_fresh", lambda: _row(sweep, v))
+        libsumo.start(args)  # started once, reloaded per run
+        for v in values:
+            clock("bare_load", lambda: bare_run(libsumo, args, v, reload=True))
         libsumo.close()
     parts: dict[str, list[float]] = {}
+    fresh_parts: dict[str, list[float]] = {}
+    with reuse_simulations():
+        _breakdown(sweep, values[0])  # the block's first run starts SUMO; the runs below restore it
+        for v in values:
+            for k, t in _breakdown(sweep, v).items():
+                parts.setdefault(k, []).append(t)
     for v in values:
-        for k, s in _breakdown(sweep, v).items():
-            parts.setdefault(k, []).append(s)
+        for k, t in _breakdown(sweep, v).items():
+            fresh_parts.setdefault(k, []).append(t)
     ms = {k: 1000 * statistics.median(t) for k, t in times.items()}
+    cpu_ms = {k: 1000 * statistics.median(t) for k, t in cpus.items()}
     return {"points": points, "runs": points * rounds, "search_ms": ms["search"], "bare_ms": ms["bare"],
-            "bare_block_ms": ms["bare_block"], "bare_load_ms": ms["bare_load"], "ratio": ms["search"] / ms["bare"], "search_cpu_ms": ms["search_cpu"],
-            "bare_cpu_ms": ms["bare_cpu"], "ratio_cpu": ms["search_cpu"] / ms["bare_cpu"], "steps": steps,
-            "breakdown_ms": {k: 1000 * statistics.median(t) for k, t in parts.items()}}  # fmt: skip
+            "search_fresh_ms": ms["search_fresh"], "bare_load_ms": ms["bare_load"],
+            "search_mean_ms": 1000 * statistics.fmean(times["search"]), "ratio": ms["search"] / ms["bare"],
+            "search_cpu_ms": cpu_ms["search"], "bare_cpu_ms": cpu_ms["bare"], "search_fresh_cpu_ms": cpu_ms["search_fresh"],
+            "ratio_cpu": cpu_ms["search"] / cpu_ms["bare"], "ratio_fresh_cpu": cpu_ms["search_fresh"] / cpu_ms["bare"],
+            "steps": steps, "breakdown_ms": {k: 1000 * statistics.median(t) for k, t in parts.items()},
+            "breakdown_fresh_ms": {k: 1000 * statistics.median(t) for k, t in fresh_parts.items()}}  # fmt: skip
 
 
 def sumo_loop_text(loop: dict[str, Any]) -> str:
     parts = ", ".join(f"{k} {v:.2f}" for k, v in loop["breakdown_ms"].items())
-    return (f"\nSUMO run inside a search (validate + run, as the search's job): {loop['search_ms']:.2f} ms; "
+    fresh = ", ".join(f"{k} {v:.2f}" for k, v in loop["breakdown_fresh_ms"].items())
+    return (f"\nSUMO run inside a search (validate + run, as the search's job; SUMO kept open and restored between "
+            f"runs): {loop['search_ms']:.2f} ms (mean {loop['search_mean_ms']:.2f}: each block's first run starts SUMO); "
             f"bare libsumo loop (start ... close): {loop['bare_ms']:.2f} ms; ratio {loop['ratio']:.2f}x "
             f"(goal <= {GOALS['sumo_vs_bare']}x); CPU time of this process: {loop['search_cpu_ms']:.2f} ms and "
             f"{loop['bare_cpu_ms']:.2f} ms, {loop['ratio_cpu']:.2f}x\n"
-            f"medians of {loop['runs']} runs each ({loop['points']} settings x {loop['runs'] // loop['points']}, "
-            f"interleaved); SUMO steps over the {loop['points']} settings: search {loop['steps']['search']}, "
-            f"bare {loop['steps']['bare']}\n"
-            f"the bare loop alone, run after run: start ... close {loop['bare_block_ms']:.2f} ms, started once and "
-            f"reloaded with libsumo.load {loop['bare_load_ms']:.2f} ms\n"
-            f"the search's run, ms (medians): {parts}\n")  # fmt: skip
+            f"the same runs each starting SUMO: {loop['search_fresh_ms']:.2f} ms, CPU {loop['search_fresh_cpu_ms']:.2f} ms, "
+            f"{loop['ratio_fresh_cpu']:.2f}x the bare loop's CPU time\n"
+            f"medians of {loop['runs']} runs each ({loop['points']} settings x {loop['runs'] // loop['points']}, in "
+            f"blocks of {loop['points']} taking turns); SUMO steps over the {loop['points']} settings: search "
+            f"{loop['steps']['search']}, bare {loop['steps']['bare']}\n"
+            f"the bare loop started once and reloaded with libsumo.load: {loop['bare_load_ms']:.2f} ms\n"
+            f"the search's run, ms (medians), SUMO kept: {parts}\n"
+            f"the search's run, ms (medians), SUMO started per run: {fresh}\n")  # fmt: skip
 
 
 # -- the report --------------------------------------------------------------------------------------------

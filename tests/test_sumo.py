@@ -867,3 +867,35 @@ def test_a_run_that_records_no_trace_has_the_same_report(tmp_path: pathlib.Path)
         recorded, bare = run(case), run(case, record=False)
         assert recorded.trace is not None and bare.trace is None
         assert bare.to_json() == recorded.to_json(), path.name
+
+
+def test_a_scenario_kept_is_given_back_without_reading_its_files_while_their_stamps_are_old(
+        tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+    """A hit costs a ``stat`` per file, not reading and hashing it, once the file's change time is older than
+    STAMP_MARGIN_NS at the read (here the margin is moved, not the clock); a younger stamp is never trusted:
+    its bytes are hashed, so a file rewritten with the same size and modification time within the time
+    stamps' granularity is still seen (the test above)."""
+    import sys
+
+    from btgen_pytrees.systems.sumo import scenario as module
+
+    cfg = scenario_dir(tmp_path)
+    names = {str(tmp_path / n) for n in ("s.sumocfg", "road.net.xml", "r.rou.xml")}
+    opened: list[str] = []
+
+    def audit(event: str, args: tuple[Any, ...]) -> None:
+        if event == "open" and isinstance(args[0], str) and args[0] in names:
+            opened.append(args[0])
+
+    sys.addaudithook(audit)
+    first = read_scenario(str(cfg))
+    assert first.problems == () and sorted(opened) == sorted(names)
+    del opened[:]
+    assert read_scenario(str(cfg)) is first and sorted(opened) == sorted(names)  # young stamps: hashed again
+    monkeypatch.setattr(module, "STAMP_MARGIN_NS", -10**12)  # as if the files were written long before
+    del opened[:]
+    for _ in range(3):
+        assert read_scenario(str(cfg)) is first
+    assert opened == []  # stat only: the read before took the stamps anew after hashing the same bytes
+    (tmp_path / "r.rou.xml").write_text(ROUTES.replace('id="ego"', 'id="egg"'), encoding="utf-8")
+    assert sorted(read_scenario(str(cfg)).vehicles) == ["egg"]  # a write changes the change time

@@ -31,6 +31,7 @@ from ..run.plot import plot_format
 from ..load.sweep import load_sweep
 from ..load.template import Sweep
 from ..load.variations import format_value
+from ..systems.sumo import reuse_simulations
 from .options import Parents, registry
 from .sweep import add_executor_options, make_executor, run_options
 
@@ -110,7 +111,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     signum = None
     try:
         try:
-            search.run()
+            with reuse_simulations():  # runs in this process (one worker) start SUMO once for the whole search
+                search.run()
         except Interrupted as stop:
             search.interrupted, signum = True, stop.signum
     finally:

@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 from ..parallel import Outcome
 from ..errors import InvalidTestCase, is_interrupt
 from ..sweep.jobs import ChunkOutcome, RunOptions, job_variation
+from ..systems.sumo import reuse_simulations
 
 __all__ = ["job_probe", "timed"]
 
@@ -36,6 +37,8 @@ def timed(label: str, options: RunOptions, source: str, document: Mapping[str, A
 
 def job_probe(label: str, options: RunOptions, source: str,
               items: Sequence[tuple[str, Mapping[str, Any], Any]]) -> ChunkOutcome:  # fmt: skip
-    """Several runs in one task (like :func:`btgen_pytrees.sweep.jobs.job_chunk`), each guarded and timed."""
-    parts = [timed(name, options, source, document, system) for name, document, system in items]
+    """Several runs in one task (like :func:`btgen_pytrees.sweep.jobs.job_chunk`), each guarded and timed;
+    SUMO is started once for them (:func:`~btgen_pytrees.systems.sumo.reuse_simulations`)."""
+    with reuse_simulations():
+        parts = [timed(name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} runs", parts=parts)

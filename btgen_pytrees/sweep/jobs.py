@@ -28,6 +28,7 @@ from ..parallel import Outcome, guard
 from ..parallel.shipping import local
 from ..run import run
 from ..contracts.system import SystemSpec
+from ..systems.sumo import reuse_simulations
 
 __all__ = ["VariationOutcome", "ChunkOutcome", "RunOptions", "job_variation", "job_chunk", "chunk_size",
            "registry_for", "row_of", "margin_of"]  # fmt: skip
@@ -128,9 +129,11 @@ def job_chunk(label: str, options: RunOptions, source: str,
     """Run several variations in one task, each guarded on its own (one's error is not the others').
 
     *items*: ``(label, document, system)`` per variation. A run takes milliseconds, about
-    what handing a task to a worker process costs; a chunk pays that once for all its runs.
+    what handing a task to a worker process costs; a chunk pays that once for all its runs,
+    and its SUMO runs start SUMO once and set it back between runs (:func:`~btgen_pytrees.systems.sumo.reuse_simulations`).
     """
-    parts = [guard(job_variation, name, options, source, document, system) for name, document, system in items]
+    with reuse_simulations():
+        parts = [guard(job_variation, name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} variations", parts=parts)
 
 

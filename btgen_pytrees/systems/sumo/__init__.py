@@ -1,7 +1,8 @@
 """Eclipse SUMO as a system under test (``"system": {"type": "sumo", "config": "x.sumocfg"}``).
 
 * :mod:`.scenario` - reads and checks the ``.sumocfg`` and its files at load time
-* :mod:`.system` - :class:`SumoSystem`, one libsumo simulation per run; the signals
+* :mod:`.system` - :class:`SumoSystem`, one libsumo simulation per run (or one kept open and set back
+  to time 0 between the runs of a :func:`reuse_simulations` block); the signals
 
 The ``sumo.*`` action leaves, and the ``register`` function that adds them and this
 system type to a registry, are :mod:`btgen_pytrees.leaves.sumo`: they act on the system,
@@ -23,12 +24,12 @@ from ...expressions import RESERVED
 from ...model import DEFAULT_TICK
 from ...text import did_you_mean
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
-from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, tick_problem
+from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, kept_simulation, reuse_simulations, tick_problem
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...model import TestCase
 
-__all__ = ["SumoType", "SUMO", "SumoSystem", "signal_vehicles"]
+__all__ = ["SumoType", "SUMO", "SumoSystem", "signal_vehicles", "reuse_simulations", "kept_simulation"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*(?![\s\S])")
 

@@ -23,10 +23,14 @@ scenario thousands of times in a process (and the SUMO system type reads it when
 it checks a case, when it makes the system, and when a cluster ships the files);
 :func:`read_scenario` therefore keeps the last :data:`CACHE_SIZE` scenarios read
 without problems, each with the real path, size and BLAKE2 digest of every file
-it parsed (the digest of the very bytes the parser saw), and returns a kept one
-only when every file still has that real path, size and content (and the
-limits below are the same) - an edited, replaced or re-linked file is read and
-checked again, exactly as the first time.
+it parsed (the digest of the very bytes the parser saw) and its ``stat`` stamp,
+and returns a kept one only when every file still has that real path, size and
+content (and the limits below are the same) - an edited, replaced or re-linked
+file is read and checked again, exactly as the first time. The content is known
+unchanged without reading it when the file's stamp (device, inode, size,
+modification and change time) is the one taken when its bytes were read and its
+change time was then older than :data:`STAMP_MARGIN_NS`; otherwise its bytes are
+hashed again (:func:`_unchanged` says why that is safe).
 
 The result is a :class:`Scenario`; problems are plain strings here and become
 :class:`~btgen_pytrees.errors.Problem` s with the case's JSON path in
@@ -41,6 +45,7 @@ import os
 import re
 import stat
 import threading
+import time
 import xml.parsers.expat
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -49,7 +54,7 @@ from typing import Callable, Iterator, Mapping
 from ...text import closest
 
 __all__ = ["Scenario", "ScenarioError", "read_scenario", "OPTIONS", "parse_options", "MAX_XML_BYTES",
-           "MAX_SCENARIO_BYTES", "MAX_XML_DEPTH", "CACHE_SIZE"]  # fmt: skip
+           "MAX_SCENARIO_BYTES", "MAX_XML_DEPTH", "CACHE_SIZE", "RESTORE_DEPART", "STAMP_MARGIN_NS"]  # fmt: skip
 
 MAX_XML_BYTES = 64 * 1024 * 1024
 """Largest configuration, network, route or additional file read (64 MiB)."""
@@ -137,6 +142,11 @@ class Scenario:
             for every lane (internal ones too) and ``("junction", 0.0, (...))`` for every junction
             outline, in network coordinates; at most :data:`MAX_SHAPE_POINTS` points in all
         files: absolute paths of every file SUMO reads: the configuration, then its inputs
+        digest: BLAKE2 digest (hex) of the contents of every file in :attr:`files`, in order: what SUMO
+            loads, for the key of a kept simulation (:func:`~.system.reuse_simulations`)
+        restore_problem: why a simulation of this scenario kept open between runs cannot be set back to
+            its start exactly (``simulation.loadState``; docs/sumo.md "One process, many runs"), or
+            ``None`` when it can
     """
 
     config: str
@@ -149,6 +159,8 @@ class Scenario:
     options: Mapping[str, str] = field(default_factory=dict)
     problems: tuple[str, ...] = ()
     files: tuple[str, ...] = ()
+    digest: str = ""
+    restore_problem: str | None = "not read"
     shapes: tuple[tuple[str, float, tuple[float, ...]], ...] = field(default=(), repr=False, compare=False)
 
 
@@ -213,8 +225,19 @@ def parse_options(options: tuple[str, ...] | list[str]) -> tuple[dict[str, str],
 # reading XML with line numbers
 
 
-_Seen = dict[str, tuple[str, int, bytes]]
-"""path -> (real path, size, BLAKE2 digest) of each file parsed to its end."""
+_Stamp = tuple[int, int, int, int, int]
+"""What ``os.stat`` says of a file: device, inode, size, modification and change time (ns)."""
+_Seen = dict[str, tuple[str, int, bytes, list[int | _Stamp]]]
+"""path -> (real path, size, BLAKE2 digest, [stamp, when]) of each file parsed to its end: *stamp* taken before
+the bytes were read, *when* (``time.time_ns()``) too (see :func:`_unchanged`)."""
+
+STAMP_MARGIN_NS = 2_000_000_000
+"""How much older than the moment its bytes were read a file's change time must be for its ``stat`` to stand
+for its content (2 s: coarser than any file system's time stamps, FAT's 2 s modification times included)."""
+
+
+def _stamp(info: os.stat_result) -> _Stamp:
+    return (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
 
 
 def _elements(path: str, shown: str, seen: _Seen | None = None) -> Iterator[tuple[str, Mapping[str, str], int, int]]:
@@ -226,6 +249,7 @@ def _elements(path: str, shown: str, seen: _Seen | None = None) -> Iterator[tupl
         ScenarioError: unreadable, too large, not well-formed, or it declares a DTD.
     """
     try:
+        when = time.time_ns()
         info = os.stat(path)
     except OSError as exc:
         raise ScenarioError(f"{shown}: cannot read: {exc.strerror or exc}") from None
@@ -268,7 +292,7 @@ def _elements(path: str, shown: str, seen: _Seen | None = None) -> Iterator[tupl
                 if not chunk:
                     break
         if seen is not None:
-            seen[path] = (os.path.realpath(path), size, digest.digest())
+            seen[path] = (os.path.realpath(path), size, digest.digest(), [_stamp(info), when])
     except xml.parsers.expat.ExpatError as exc:
         raise ScenarioError(f"{shown}:{exc.lineno}: not well-formed XML: {xml.parsers.expat.ErrorString(exc.code)}") from None
     except OSError as exc:
@@ -292,8 +316,9 @@ def _inside(base: str, name: str, where: str) -> str:
 
 CACHE_SIZE = 8
 """Scenarios :func:`read_scenario` keeps per process (the most recently used; each holds its network's shapes)."""
-_cache: "OrderedDict[str, tuple[tuple[int, ...], str, tuple[tuple[str, tuple[str, int, bytes]], ...], Scenario]]" = OrderedDict()
-"""config path -> (the limits it was checked against, real path of its directory, each file's fingerprint, the scenario)."""
+_cache: "OrderedDict[str, tuple[tuple[int, ...], str, tuple[tuple[str, tuple[str, int, bytes, list[int | _Stamp]]], ...], Scenario]]" = OrderedDict()
+"""config path -> (the limits it was checked against, real path of its directory, each file's fingerprint
+(real path, size, digest, [stamp, when]), the scenario)."""
 _cache_lock = threading.Lock()
 
 
@@ -316,18 +341,35 @@ def _fingerprint(path: str) -> tuple[str, int, bytes] | None:
     return (real, read, digest.digest()) if read == size else None
 
 
-def _unchanged(base: str, real_base: str, files: tuple[tuple[str, tuple[str, int, bytes]], ...]) -> bool:
-    """Whether the configuration's directory and every file a kept scenario parsed are as they were then."""
+def _unchanged(base: str, real_base: str, files: tuple[tuple[str, tuple[str, int, bytes, list[int | _Stamp]]], ...]) -> bool:
+    """Whether the configuration's directory and every file a kept scenario parsed are as they were then.
+
+    Each file: the same real path and size, and then either the same ``stat`` stamp (device, inode, size,
+    modification and change time) as when its bytes were read while that change time was then at least
+    :data:`STAMP_MARGIN_NS` old, or the same BLAKE2 digest of its bytes now. Writing a file sets its change
+    time to the present, which no program can set back (``os.utime`` sets the modification time only): a
+    file written since the bytes were read has another stamp - unless it was written within the time
+    stamps' granularity of that read, which is why a stamp younger than the margin is never trusted and the
+    bytes are hashed instead (and, when they are the same, the stamp is taken anew).
+    """
     if os.path.realpath(base) != real_base:
         return False
-    for path, (real, size, digest) in files:
+    for path, (real, size, digest, noted) in files:
         try:
-            if os.stat(path).st_size != size:  # cheap first: a changed size needs no reading
-                return False
+            when = time.time_ns()
+            info = os.stat(path)
         except OSError:
             return False
+        if info.st_size != size:  # cheap first: a changed size needs no reading
+            return False
+        stamp, taken = noted
+        if stamp == _stamp(info) and info.st_ctime_ns < taken - STAMP_MARGIN_NS:  # type: ignore[operator]
+            if os.path.realpath(path) != real:
+                return False
+            continue
         if _fingerprint(path) != (real, size, digest):
             return False
+        noted[:] = [_stamp(info), when]  # the same bytes: their stamp may stand for them from now on
     return True
 
 
@@ -371,17 +413,21 @@ def _read_scenario(config: str, seen: _Seen) -> Scenario:
         lanes: dict[str, int] = {}
         signals: dict[str, int] = {}
         shapes: list[tuple[str, float, tuple[float, ...]]] = []
-        _read_net(net[0], os.path.relpath(net[0], base), lanes, signals, shapes, seen)
+        net_problem: list[str | None] = [None]
+        _read_net(net[0], os.path.relpath(net[0], base), lanes, signals, shapes, seen, net_problem)
         demand = _Demand(lanes)
         for path in inputs.get("route-files", []) + inputs.get("additional-files", []):
             demand.read(path, os.path.relpath(path, base), seen)
         demand.check()
     except ScenarioError as exc:
         return Scenario(config, problems=(str(exc),))
-    files = (config, *net, *inputs.get("route-files", []), *inputs.get("additional-files", []))
+    files = tuple(dict.fromkeys((config, *net, *inputs.get("route-files", []), *inputs.get("additional-files", []))))
+    digest = hashlib.blake2b(digest_size=16)
+    for path in files:
+        digest.update(seen[path][2] if path in seen else b"?")
     return Scenario(config, demand.vehicles, frozenset(demand.routes), frozenset(demand.types), lanes,
-                    demand.route_edges, signals, options, shapes=tuple(shapes),
-                    files=tuple(dict.fromkeys(files)))  # fmt: skip
+                    demand.route_edges, signals, options, shapes=tuple(shapes), files=files,
+                    digest=digest.hexdigest(), restore_problem=net_problem[0] or demand.restore_problem())  # fmt: skip
 
 
 def _check_total(paths: list[str], shown: str) -> None:
@@ -459,7 +505,11 @@ def _points(text: str) -> tuple[float, ...]:
 
 
 def _read_net(path: str, shown: str, lanes: dict[str, int], signals: dict[str, int],
-              shapes: list[tuple[str, float, tuple[float, ...]]] | None = None, seen: _Seen | None = None) -> None:  # fmt: skip
+              shapes: list[tuple[str, float, tuple[float, ...]]] | None = None, seen: _Seen | None = None,
+              restore: list[str | None] | None = None) -> None:  # fmt: skip
+    """Read the network: lanes per edge, traffic lights, the scene's shapes; ``restore[0]`` gets why a kept
+    simulation of it cannot be restored exactly (a traffic light that is not fixed-time keeps detector
+    state that SUMO's state file leaves out)."""
     edge: str | None = None
     logic = ""
     empty = True
@@ -490,10 +540,28 @@ def _read_net(path: str, shown: str, lanes: dict[str, int], signals: dict[str, i
         elif tag == "tlLogic":
             logic = attributes.get("id", "")
             signals.setdefault(logic, 0)
+            kind = attributes.get("type", "static")
+            if restore is not None and restore[0] is None and kind != "static":
+                restore[0] = f"traffic light {logic!r} is {kind!r}, not fixed-time ('static')"
         elif tag == "phase" and depth == 3:
             signals[logic] = max(signals.get(logic, 0), len(attributes.get("state", "")))
     if empty:
         raise ScenarioError(f"{shown}: empty network file")
+
+
+RESTORE_DEPART = 100.0
+"""Latest departure (s) of a vehicle of a scenario whose kept simulation is restored between runs: half of
+SUMO's ``--route-steps`` (200 s), so every vehicle has been read from its file when SUMO starts."""
+
+_RESTORABLE = frozenset({"vType", "vTypeDistribution", "route", "routeDistribution", "vehicle", "trip"})
+
+
+def _early(depart: str) -> bool:
+    try:
+        value = float(depart)
+    except ValueError:
+        return False
+    return math.isfinite(value) and 0 <= value <= RESTORE_DEPART
 
 
 class _Demand:
@@ -506,6 +574,17 @@ class _Demand:
         self.types: set[str] = set(DEFAULT_TYPES)
         self.route_edges: dict[str, str] = {}
         self.uses: list[tuple[str, str, str, str]] = []  # (where, vehicle, "type"/"route", id)
+        self.restore: str | None = None  # the first reason a kept simulation cannot be restored exactly
+
+    def restore_problem(self) -> str | None:
+        """Why a simulation of this demand cannot be set back to time 0 with ``simulation.loadState``.
+
+        SUMO reads route files bit by bit (``--route-steps``, 200 s ahead) and a state loaded later does
+        not rewind that reading; flows, persons and other elements have state of their own. Exact: only
+        ``vType``, ``route`` (and their distributions), ``vehicle`` and ``trip`` elements, every vehicle
+        departing at a number of seconds up to :data:`RESTORE_DEPART` - all read when SUMO starts.
+        """
+        return self.restore
 
     def read(self, path: str, shown: str, seen: _Seen | None = None) -> None:
         in_distribution = False
@@ -521,6 +600,8 @@ class _Demand:
             ident = attributes.get("id")
             if depth == 2:
                 in_distribution = tag == "routeDistribution"
+                if self.restore is None and tag not in _RESTORABLE:
+                    self.restore = f"{where}: <{tag}> (only {', '.join(sorted(_RESTORABLE))} are restored exactly)"
             if tag in ("vType", "vTypeDistribution") and ident:
                 self.types.add(ident)
             elif tag == "routeDistribution" and ident:
@@ -540,6 +621,9 @@ class _Demand:
                 if ident in self.vehicles:
                     raise ScenarioError(f"{where}: vehicle {ident!r} is declared twice")
                 self.vehicles[ident] = attributes.get("depart", "")
+                if self.restore is None and not _early(self.vehicles[ident]):
+                    self.restore = (f"{where}: vehicle {ident!r} departs at {self.vehicles[ident]!r} (restored exactly: "
+                                    f"a number of seconds up to {RESTORE_DEPART:g})")  # fmt: skip
                 for key in ("type", "route"):
                     if key in attributes:
                         self.uses.append((where, ident, key, attributes[key]))

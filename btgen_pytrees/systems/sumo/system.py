@@ -40,14 +40,18 @@ see :mod:`btgen_pytrees.contracts.environment`).
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import io
 import math
+import multiprocessing.util
 import os
+import re
 import subprocess
 import sys
+import tempfile
 import threading
-from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping
 
 from py_trees.blackboard import Blackboard
 
@@ -58,7 +62,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...contracts.environment import Environment
 
 __all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT", "tick_problem",
-           "LOOKAHEAD"]
+           "LOOKAHEAD", "reuse_simulations", "kept_simulation"]
 
 INSTALL_HINT = "pip install -e '.[sumo]'"
 ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", "ttc", "present", "collided")
@@ -80,6 +84,86 @@ _PLACE = (_POSITION, _ANGLE)  # every other vehicle: where it is, for the replay
 _active: "SumoSystem | None" = None
 """The simulation libsumo is running in this process, if any (read and changed only under :data:`_claim`)."""
 _claim = threading.Lock()
+_kept: "_Kept | None" = None
+"""A simulation left open by the last run, for the next run of the same key (only under :data:`_claim`)."""
+_scopes = 0
+"""How many :func:`reuse_simulations` blocks are open in this process (only under :data:`_claim`)."""
+_unrestorable: set[tuple[Any, ...]] = set()
+"""Keys whose snapshot could not be taken (SUMO refused a step of it): those start afresh every run."""
+
+
+@contextlib.contextmanager
+def reuse_simulations() -> Iterator[None]:
+    """Within this block, a SUMO run leaves its simulation open for the next run of the same key.
+
+    The key is the whole command line and the digest of every scenario file's contents. The next
+    run with that key sets the simulation back to time 0 with ``simulation.loadState`` (about a
+    quarter of a start) instead of starting SUMO; a run with another key, or a run outside any
+    block, closes it first; the end of the outermost block closes it. Only scenarios SUMO restores
+    exactly are kept (:attr:`~.scenario.Scenario.restore_problem`), and the random number
+    generators are set back too, so a run gives the same report whatever ran before it in the
+    process (docs/sumo.md, "One process, many runs"). Blocks nest; any thread may open one.
+    """
+    global _scopes
+    with _claim:
+        _scopes += 1
+    try:
+        yield
+    finally:
+        with _claim:  # closed under the claim: no run may start libsumo while it closes
+            _scopes -= 1
+            kept = _take_kept() if _scopes == 0 else None
+            if kept is not None:
+                kept.close()
+
+
+def kept_simulation() -> tuple[Any, ...] | None:
+    """The key of the simulation kept open in this process (``(command line, scenario digest)``), or ``None``."""
+    with _claim:
+        return _kept.key if _kept is not None else None
+
+
+def _take_kept() -> "_Kept | None":
+    """Take the kept simulation out of :data:`_kept` (the caller holds :data:`_claim`)."""
+    global _kept
+    kept, _kept = _kept, None
+    return kept
+
+
+def _close_kept_at_exit() -> None:
+    with _claim:
+        kept = _take_kept()
+        if kept is not None:
+            kept.close()
+
+
+def _forget_kept_in_child() -> None:
+    """A forked child (a worker of the local pool) gets a copy of a kept simulation: close the copy, never
+    use it (the parent's stays the parent's). No lock: the child has one thread, and a lock another thread
+    of the parent held at the fork stays held in the child."""
+    global _kept, _scopes
+    kept, _kept, _scopes = _kept, None, 0
+    if kept is not None:
+        kept.close()
+
+
+_exit_hooks = 0
+"""The process that registered :func:`_close_kept_at_exit` with multiprocessing (0: none yet)."""
+
+
+def _close_at_exit() -> None:
+    """Make sure this process closes a kept simulation when it leaves: ``atexit`` for a normal process, and
+    multiprocessing's finalizers for a worker process (which leaves by ``os._exit`` after running them, not
+    atexit; a forked one starts with none, so this is called anew in each process that keeps one)."""
+    global _exit_hooks
+    if _exit_hooks != os.getpid():
+        _exit_hooks = os.getpid()
+        multiprocessing.util.Finalize(None, _close_kept_at_exit, exitpriority=0)
+
+
+atexit.register(_close_kept_at_exit)
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_kept_in_child)
 
 
 def tick_problem(tick: Any) -> str | None:
@@ -168,6 +252,8 @@ class SumoSystem:
         self._contacts: frozenset[tuple[str, str]] = frozenset()
         self._lib: Any = None
         self._started = False
+        self._kept: _Kept | None = None  # the snapshot this run started from, when its simulation may be kept
+        self._sound = True  # no step failed or was interrupted, no traffic light was switched: it may be kept
         self._keys: list[tuple[str, str, str, str, tuple[str, ...]]] = []
         self.timer: Callable[[], float] | None = None
         """A clock (e.g. :func:`time.process_time`) to fill :attr:`timing` with; ``None``: no timing."""
@@ -192,17 +278,29 @@ class SumoSystem:
                 raise SystemFailure("libsumo runs one simulation per process and another run is using it; "
                                     "run the cases one after the other (batch mode gives each worker process its own)")  # fmt: skip
             _active = self
+            kept = _take_kept()
+            reuse = _scopes > 0 and self.scenario.restore_problem is None
         args = self.arguments()
+        key = (tuple(args), self.scenario.digest)
         t0 = self.timer() if self.timer else 0.0
         try:
-            lib.start(args)
+            if kept is not None and (not reuse or kept.key != key or not kept.restore()):
+                kept.close()
+                kept = None
+            if kept is None:
+                if reuse and key not in _unrestorable:
+                    kept = _Kept.start(lib, args, key)
+                else:
+                    lib.start(args)
         except Exception as exc:  # noqa: BLE001 - libsumo.TraCIException, FatalTraCIError
             _close(lib)
             _release(self)
             raise SystemFailure(f"SUMO could not load {self.scenario.config}: {_why(exc, args)}") from None
         except BaseException:
+            _close(lib)
             _release(self)
             raise
+        self._kept = kept
         self._lib, self._started = lib, True
         self._namespace = prefix = env.namespace + "/signals/"
         # each tracked vehicle's blackboard keys, made once: (vid, collided, present, lane, motion keys)
@@ -220,13 +318,31 @@ class SumoSystem:
         self._step()
 
     def close(self) -> None:
+        global _kept
         if self._started:
             self._started = False
             t0 = self.timer() if self.timer else 0.0
+            kept, self._kept = self._kept, None
+            parked = False
             try:
-                _close(self._lib)
+                if kept is not None and self._sound and kept.check():
+                    with _claim:
+                        if _scopes > 0 and _kept is None:
+                            _close_at_exit()
+                            _kept, parked = kept, True
+                if not parked:
+                    if kept is not None:
+                        kept.close()
+                    else:
+                        _close(self._lib)
+            except BaseException:
+                if not parked:
+                    _close(self._lib)
+                    if kept is not None:
+                        kept.forget()
+                raise
             finally:
-                _release(self)  # only once libsumo is closed may another run start it
+                _release(self)  # only once libsumo is closed (or kept) may another run start it
             if self.timer:
                 self.timing["close"] += self.timer() - t0
 
@@ -249,11 +365,13 @@ class SumoSystem:
         self.steps += 1
 
     def _simulation_step(self, lib: Any) -> None:
+        self._sound, sound = False, self._sound  # until the step is done: an interrupted step leaves SUMO unknown
         try:
             time = lib.simulation.getTime()  # the time of the step SUMO executes now, and the label of its state
             lib.simulationStep()
         except Exception as exc:  # noqa: BLE001
             raise SystemFailure(f"SUMO stopped at {self.now():g} s: {exc}") from None
+        self._sound = sound
         self.time = time
 
     def _read(self, lib: Any) -> None:
@@ -419,6 +537,7 @@ class SumoSystem:
                    departSpeed="0" if speed is None else repr(float(speed)))  # fmt: skip
 
     def set_signal(self, tls: str, state: str) -> None:
+        self._sound = False  # SUMO keeps the program it makes for the state: a kept simulation would differ
         self._call(self._lib.trafficlight.setRedYellowGreenState, tls, state)
 
     def _call(self, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
@@ -462,3 +581,151 @@ def _why(exc: BaseException, args: list[str]) -> str:
     except Exception:  # noqa: BLE001 - best effort: the eclipse-sumo wheel may be missing
         pass
     return message or type(exc).__name__
+
+
+# -- a simulation kept between runs (reuse_simulations) ----------------------------------------------
+
+_RNG_STATE = re.compile(r"\s*<rngState\b[^>]*>.*?</rngState>", re.S)
+_EDGE_CONTROL = re.compile(r"\s*<edgeControl\b[^>]*/>")
+_ATTRIBUTE = re.compile(r'([^\s=]+)="([^"]*)"')
+_LANE_RNG = re.compile(r'<rngLane index="(\d+)" state="([^"]*)"/>')
+_FULL = "1000000"
+"""SUMO's ``SAVE_ONLY_COUNT``: a generator drawn this often is saved as count and full state, not as count alone."""
+
+
+def _rngs(text: str) -> tuple[str, dict[str, str], str]:
+    """Split a state saved with ``--save-state.rng``: the text before the generators, each generator's saved
+    value (``default``, ``routeHandler``, ... and ``lane <i>``), the text after (without ``<edgeControl>``)."""
+    found = _RNG_STATE.search(text)
+    if found is None:
+        raise RuntimeError("SUMO saved no random number generators")
+    element = found.group(0)
+    head = element[element.index("<rngState") + 9:element.index(">")]
+    values = {name: value for name, value in _ATTRIBUTE.findall(head)}
+    values.update((f"lane {i}", value) for i, value in _LANE_RNG.findall(element))
+    return text[:found.start()], values, _EDGE_CONTROL.sub("", text[found.end():])
+
+
+def _rng_element(values: Mapping[str, str]) -> str:
+    """The ``<rngState>`` element that loads *values* (generators not named are left as they are)."""
+    if not values:
+        return ""
+    head = "".join(f' {name}="{value}"' for name, value in values.items() if not name.startswith("lane "))
+    lanes = "".join(f'<rngLane index="{name[5:]}" state="{value}"/>' for name, value in values.items() if name.startswith("lane "))
+    return f"\n    <rngState{head}>{lanes}</rngState>"
+
+
+class _File:
+    """A file SUMO writes and reads by name: an anonymous memory file on Linux (``/proc/self/fd/N``,
+    gone with the process whatever happens to it), else a private temporary file."""
+
+    def __init__(self) -> None:
+        self._dir: str | None = None
+        if hasattr(os, "memfd_create") and os.path.isdir("/proc/self/fd"):
+            self.fd = os.memfd_create("btgen-sumo-state", getattr(os, "MFD_CLOEXEC", 0))
+            self.path = f"/proc/self/fd/{self.fd}"
+        else:  # pragma: no cover - not Linux
+            self._dir = tempfile.mkdtemp(prefix="btgen-sumo-")
+            self.path = os.path.join(self._dir, "state.xml")
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+
+    def read(self) -> str:
+        size = os.fstat(self.fd).st_size
+        return os.pread(self.fd, size, 0).decode("utf-8") if self._dir is None else open(self.path, encoding="utf-8").read()
+
+    def write(self, text: str) -> None:
+        data = text.encode("utf-8")
+        os.ftruncate(self.fd, 0)
+        os.pwrite(self.fd, data, 0)
+
+    def close(self) -> None:
+        with contextlib.suppress(OSError):
+            os.close(self.fd)
+        if self._dir is not None:  # pragma: no cover - not Linux
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)
+                os.rmdir(self._dir)
+
+
+class _Kept:
+    """A running simulation with its snapshot at time 0, to be set back exactly for the next run.
+
+    ``simulation.loadState`` restores the vehicles, routes, time and traffic lights, but not SUMO's random
+    number generators: loaded without them the next run would go on drawing where the last one stopped;
+    loaded with them (``--save-state.rng``) SUMO skips the saved *count* of draws from where each generator
+    is now, not from its seed. So the snapshot carries each generator's full state (SUMO saves that after
+    :data:`_FULL` draws; loading a bare count of :data:`_FULL` sets the counter without touching the state,
+    and the next save writes it out), and after every run the generators that drew are set back to it:
+    a run starts from exactly the state, generators included, that a fresh start gives.
+    """
+
+    def __init__(self, lib: Any, key: tuple[Any, ...]):
+        self.lib, self.key = lib, key
+        self.snapshot, self.probe = _File(), _File()
+        self.before = self.after = ""
+        self.start_state: dict[str, str] = {}  # each generator's full state at time 0
+        self.now: dict[str, str] = {}  # what SUMO saves for each generator now (at the start of the run)
+        self.drew: set[str] = set()  # generators the last run drew from: set back by restore()
+
+    @classmethod
+    def start(cls, lib: Any, args: list[str], key: tuple[Any, ...]) -> "_Kept":
+        """Start SUMO and take the snapshot (the simulation is at time 0, as after ``libsumo.start``)."""
+        lib.start([*args, "--save-state.rng", "true"])
+        kept = cls(lib, key)
+        try:
+            before, counts, after = kept._save()
+            kept._load(before + _rng_element({n: v if " " in v else _FULL for n, v in counts.items()}) + after)
+            kept.before, full, kept.after = kept._save()
+            if set(full) != set(counts) or any(" " not in v for v in full.values()):
+                raise RuntimeError("SUMO did not save the generators' full states")
+            kept.start_state = full
+            kept.now = dict.fromkeys(full, "0")
+            kept._load(kept.before + _rng_element(kept.now) + kept.after)  # small counters: cheap saves
+        except Exception:  # noqa: BLE001 - SUMO refused: this key starts afresh from now on
+            kept.close()
+            _unrestorable.add(key)
+            lib.start(args)
+            return None  # type: ignore[return-value]
+        except BaseException:
+            kept.close()
+            raise
+        return kept
+
+    def _save(self) -> tuple[str, dict[str, str], str]:
+        self.lib.simulation.saveState(self.probe.path)
+        return _rngs(self.probe.read())
+
+    def _load(self, text: str) -> None:
+        self.snapshot.write(text)
+        self.lib.simulation.loadState(self.snapshot.path)
+
+    def check(self) -> bool:
+        """After a run: note the generators it drew from; False if the simulation cannot be kept."""
+        try:
+            _, values, _ = self._save()
+        except Exception:  # noqa: BLE001
+            return False
+        if set(values) != set(self.now):
+            return False
+        self.drew = {name for name, value in values.items() if value != self.now[name]}
+        return True
+
+    def restore(self) -> bool:
+        """Set the simulation back to time 0; False if SUMO refused (then close it)."""
+        back = {name: self.start_state[name] for name in self.now if name in self.drew}
+        try:
+            self._load(self.before + _rng_element(back) + self.after)
+        except Exception:  # noqa: BLE001
+            return False
+        self.now.update(back)
+        self.drew = set()
+        return True
+
+    def forget(self) -> None:
+        """Drop the snapshot's files (SUMO itself is closed by the caller)."""
+        self.snapshot.close()
+        self.probe.close()
+
+    def close(self) -> None:
+        _close(self.lib)
+        self.forget()

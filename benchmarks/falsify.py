@@ -21,7 +21,7 @@ declared resolution, *p* and the grid's first failure are counted on the grid
 points), after checking that the equation gives every stored real run's
 verdict (:func:`declared_truth`).
 
-For each case and method, ``--seeds`` searches (default 20) with ``--budget``
+For each case and method, ``--seeds`` searches (default 20; seeds from ``--first-seed``, default 0) with ``--budget``
 runs (default 200), ``--batch`` (default 1: the runs run in this process, one
 after the other, and ``falsify``'s batch is the number of runs that can run at
 once) and ``stop: first``: the median runs to the first failure, the seeds that found one, the
@@ -269,14 +269,14 @@ def _distance(name: str, search: Search, boundary: Any) -> float:
 # -- searches --------------------------------------------------------------------------------------------
 
 
-def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1) -> dict[str, Any]:
+def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1, first_seed: int = 0) -> dict[str, Any]:
     sweep = _sweep(name)
     space = Space.of(sweep.variations)
     firsts, distances, own, runs_time = [], [], 0.0, 0.0
     groups = groups_of(validate(sweep.document(sweep.defaults), sweep.source, default_registry()))
     warm, _ = _evaluator(sweep)  # imports (the optimiser libraries, numpy, scipy) are a process's, paid once: not timed
     Search(space, sweep.defaults, Settings(method=method, seed=10**6, budget=2 * batch, batch=batch, stop="first"), warm, groups).run()
-    for seed in range(seeds):
+    for seed in range(first_seed, first_seed + seeds):
         evaluate, spent = _evaluator(sweep)
         t0 = time.perf_counter()
         settings = Settings(method=method, seed=seed, budget=budget, stop="first", batch=batch)
@@ -483,6 +483,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--cases", default=",".join(CASES), help="comma-separated case names")
     parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated methods")
     parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--first-seed", type=int, default=0, help="the searches' seeds are FIRST_SEED, FIRST_SEED + 1, ... (default 0)")
     parser.add_argument("--budget", type=int, default=200)
     parser.add_argument("--batch", type=int, default=1,
                         help="runs asked and told together (default 1: the runs are in-process, one at a time, and falsify's batch is its worker count)")  # fmt: skip
@@ -505,7 +506,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows = []
     for c in cases:
         for m in args.methods.split(","):
-            rows.append(search_case(c, m, args.seeds, args.budget, args.batch))
+            rows.append(search_case(c, m, args.seeds, args.budget, args.batch, args.first_seed))
             print(f"{c} {m}: median {rows[-1]['median']}, found {rows[-1]['found']}/{args.seeds}", file=sys.stderr)
     text = table(rows, truths, args.budget)
     loop = sumo_loop() if args.sumo_loop else None

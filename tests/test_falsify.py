@@ -291,6 +291,81 @@ def test_the_gp_start_runs_the_boxs_opposite_corners_then_sobol_points(tmp_path:
     assert json.loads((tmp_path / "c.json").read_text())["first_failure"] == 1
 
 
+def _island_search(name: str, **settings: Any) -> Any:
+    """A search over one of the benchmark's island cases with real runs of the built-in simulator."""
+    from btgen_pytrees.falsify import Search, Settings, Space
+    from btgen_pytrees.falsify.jobs import timed
+    from btgen_pytrees.falsify.margins import row_margins
+    from btgen_pytrees.sweep import load_sweep
+    from btgen_pytrees.sweep.jobs import RunOptions
+
+    sweep = load_sweep(str(ROOT / "benchmarks" / "falsify_cases" / f"{name}.json"), check_all=False, max_variations=10**18)
+
+    def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        rows = [dict(timed("x", RunOptions(), sweep.source, sweep.document({**sweep.defaults, **v}), None).row) for v in points]  # type: ignore[attr-defined]
+        return [{**row, "margins": row_margins(row)} for row in rows]
+
+    return Search(Space.of(sweep.variations), sweep.defaults, Settings(**settings), evaluate, {"others": ("&&", ["F1"])})
+
+
+def test_the_quadratic_models_minimum_is_proposed_only_when_it_ranks_its_runs() -> None:
+    """The gp method's quadratic point: on island_2d (its margin is a bowl in both parameters) the model
+    fitted to 16 Sobol runs predicts each run from the others in their order, and its minimum lies in
+    the failing island; on island_4d (a ramp's duration bends the bowl) it does not, and the quadratic
+    proposes nothing - a point from it was no better than an arbitrary one."""
+    import numpy as np
+
+    from btgen_pytrees.falsify.surrogate import quadratic_minimum
+
+    told = {}
+    for name in ("island_2d", "island_4d"):
+        search = _island_search(name, method="sobol", seed=0, budget=16, batch=16).run()
+        told[name] = [(r.unit, r.objective) for r in search.runs]
+    bottom = quadratic_minimum(told["island_2d"], 2, np.random.default_rng(0), check=True)
+    assert bottom is not None and (10 * bottom[0] - 6) ** 2 / 4 + (5 * bottom[1] - 2.5) ** 2 < 0.08  # inside the island
+    assert quadratic_minimum(told["island_4d"], 4, np.random.default_rng(0), check=True) is None
+    assert quadratic_minimum(told["island_4d"], 4, np.random.default_rng(0)) is not None  # CMA-ES's batches take it unchecked
+
+
+@pytest.mark.parametrize("seed", [122, 187])
+def test_the_gp_does_not_stay_on_a_quadratic_that_misranks_its_runs(seed: int) -> None:
+    """island_4d at batch 1: seeds on which the quadratic model's minimum, taken as every point once 11
+    runs fit it, never met the failure in 200 runs; checked, the model's own points find it."""
+    search = _island_search("island_4d", seed=seed, budget=48, batch=1, stop="first").run()
+    assert search.first_failure is not None and search.first_failure <= 32
+
+
+def test_the_length_scales_are_refitted_every_batch_until_the_model_keeps_a_subset() -> None:
+    """A long search at batch 1 (island_2d, every failure found pushed up): the model's length scales
+    are fitted at every batch while it sees every run (up to KEEP), then again only once the runs
+    told have grown by REFIT since their last fit; the search stays the same search."""
+    from btgen_pytrees.falsify.surrogate import KEEP, REFIT
+
+    fits: list[tuple[int, int]] = []
+    search = _island_search("island_2d", seed=3, budget=120, batch=1, stop="all")
+    ask = search.sampler.ask
+
+    def recording(n: int) -> list[list[float]]:
+        points = ask(n)
+        if search.sampler.stage == "gp":
+            fits.append((sum(y is not None for y in search.sampler.ys), search.sampler.model.fitted))
+        return points
+
+    search.sampler.ask = recording  # type: ignore[method-assign]
+    search.run()
+    assert len(fits) > 40 and max(told for told, _ in fits) > 2 * KEEP
+    last = 0
+    for told, fitted in fits:
+        if told <= KEEP or told >= REFIT * last:
+            assert fitted == told
+            last = told
+        else:
+            assert fitted == last
+    assert any(told > fitted for told, fitted in fits)
+    again = _island_search("island_2d", seed=3, budget=120, batch=1, stop="all").run()
+    assert [r.parameters for r in again.runs] == [r.parameters for r in search.runs]
+
+
 def test_criteria_without_a_gradient_leave_the_search_space_filling(tmp_path: pathlib.Path) -> None:
     data = island()
     # a comparison of booleans: its margin is 0 wherever the run passes (like a collision count)

@@ -9,8 +9,8 @@ runs the box's two opposite corners first, when it has at least 4 runs). Then:
 
 * ``gp`` - a Gaussian-process model of the objective (:mod:`.surrogate`),
   refitted after every batch; each batch is the quadratic model's minimum
-  (when there are runs enough for one), then the points most likely to fail
-  under the model, spread by "kriging believer". List parameters are drawn
+  (when there are runs enough for one and it ranks them), then the points most
+  likely to fail under the model, spread by "kriging believer". List parameters are drawn
   uniformly.
 * ``cmaes`` - CMA-ES (the ``cmaes`` library, which Optuna's ``CmaEsSampler``
   wraps; used directly because Optuna 5 deprecates that sampler's ``x0``,
@@ -82,15 +82,19 @@ def resolve_method(method: str, space: Space) -> str:
 
 @contextlib.contextmanager
 def _quiet(optuna: Any) -> Iterator[None]:
-    """Optuna's INFO lines ("A new study created") and experimental warnings off, for our calls only."""
-    level = optuna.logging.get_verbosity()
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    """Warnings off (Optuna's experimental ones, SciPy's note on a Sobol sample's size) for our calls only,
+    and Optuna's INFO lines ("A new study created") when *optuna* is given: the calls that reach Optuna
+    pass it (setting its log level costs more than a model's batch)."""
+    level = optuna.logging.get_verbosity() if optuna is not None else None
+    if optuna is not None:
+        optuna.logging.set_verbosity(optuna.logging.WARNING)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             yield
     finally:
-        optuna.logging.set_verbosity(level)
+        if optuna is not None:
+            optuna.logging.set_verbosity(level)
 
 
 class Sampler:
@@ -118,6 +122,7 @@ class Sampler:
         self.batch = batch
         self.xs: list[list[float]] = []
         self.ys: list[float | None] = []
+        self._unit: list[list[float]] = []  # each run's continuous coordinates (what the models see)
         self._asked: list[tuple[str, Any, list[float]]] = []
         self._names = [d.name for d in space.dimensions]
         dists = optuna.distributions
@@ -149,6 +154,11 @@ class Sampler:
     # -- the interface ------------------------------------------------------------------------------
 
     @property
+    def model(self) -> Model:
+        """The ``gp`` method's Gaussian-process model (its length scales and when they were fitted)."""
+        return self._model
+
+    @property
     def stage(self) -> str:
         """``start`` (space-filling), then the method's own stage (``sobol`` when it fell back)."""
         return self._stage
@@ -158,7 +168,7 @@ class Sampler:
         if self._stage == "start" and len(self.xs) + len(self._asked) >= self.start:
             self._switch(self.method)
         points = []
-        with _quiet(self._optuna):
+        with _quiet(self._optuna if self._study is not None and self._stage in ("tpe", "random") else None):
             for _ in range(n):
                 if self._stage == "cmaes" and self.batch > 1 and not self._asked:  # one model point per batch
                     x = self._model_point()
@@ -168,9 +178,9 @@ class Sampler:
                         self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "gp":
                     if not self._asked or not self._queue:  # a batch's points at once (the quadratic's first)
-                        told = [(self._continuous(x), y) for x, y in zip(self.xs, self.ys) if y is not None]
-                        self._queue = self._model.propose([x for x, _ in told], [y for _, y in told], n - len(points),
-                                                          first=None if self._asked else self._model_point())  # fmt: skip
+                        told = [i for i, y in enumerate(self.ys) if y is not None]
+                        self._queue = self._model.propose([self._unit[i] for i in told], [self.ys[i] for i in told], n - len(points),  # type: ignore[misc]
+                                                          first=None if self._asked else self._model_point(check=True))  # fmt: skip
                     x = self._queue.pop(0)
                     self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "cmaes":
@@ -191,10 +201,11 @@ class Sampler:
         if len(values) != len(self._asked):
             raise ValueError(f"told {len(values)} values for {len(self._asked)} points asked")
         state = self._optuna.trial.TrialState
-        with _quiet(self._optuna):
+        with _quiet(self._optuna if any(kind == "trial" for kind, _, _ in self._asked) else None):
             for (kind, handle, point), value in zip(self._asked, values):
                 self.xs.append(point)
                 self.ys.append(value)
+                self._unit.append(self._continuous(point))
                 if kind == "trial":
                     if value is None:
                         self._study.tell(handle, state=state.FAIL)
@@ -296,11 +307,12 @@ class Sampler:
         if len(self._starts) > 1:
             self.restarts += 1
 
-    def _model_point(self) -> Any:
+    def _model_point(self, check: bool = False) -> Any:
         """The minimum of a quadratic model of the objective fitted to the best runs so far (as in
-        lq-CMA-ES), or None when too few runs fit one; the first point of each CMA-ES batch."""
-        told = [(self._continuous(x), y) for x, y in zip(self.xs, self.ys) if y is not None and not self.avoid(x)]
-        return quadratic_minimum(told, len(self.space.continuous), self._rng)
+        lq-CMA-ES), or None when too few runs fit one (or, with *check*, when it does not rank its own
+        runs: the ``gp`` method's model chooses instead); the first point of each batch."""
+        told = [(u, y) for u, x, y in zip(self._unit, self.xs, self.ys) if y is not None and not self.avoid(x)]
+        return quadratic_minimum(told, len(self.space.continuous), self._rng, check=check)
 
     def _cma_tell(self) -> None:
         told = [y for _, y in self._generation if y is not None]

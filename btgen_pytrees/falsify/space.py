@@ -16,6 +16,7 @@ value is short, exact in JSON, and runs again as written.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from statistics import NormalDist
@@ -57,9 +58,9 @@ class Dimension:
     def continuous(self) -> bool:
         return self.kind != "list"
 
-    @property
+    @functools.cached_property
     def digits(self) -> int:
-        """Decimal places values are rounded to: 1/100 of the resolution."""
+        """Decimal places values are rounded to: 1/100 of the resolution (computed once: every run's values are rounded)."""
         return max(0, min(12, 2 - math.floor(math.log10(self.resolution)))) if self.resolution > 0 else 6
 
     def value(self, u: float) -> Value:

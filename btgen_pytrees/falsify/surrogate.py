@@ -10,7 +10,9 @@ It is ordinary kriging on the unit box, small enough to refit every batch:
   candidates: at the first fit a range of equal scales, then each parameter's
   halved and doubled; later fits start from the previous scales and try only
   each parameter's scale times 0.6 and 1.6 (the model follows the runs without
-  a full search every batch);
+  a full search every batch). The scales are fitted at every batch while the
+  model sees every run (up to :data:`KEEP`), then once the runs told have grown
+  by :data:`REFIT`;
 * a point's **acquisition** is its probability of failing under the model,
   P(objective < 0) = Phi(-mean / sd): high near runs that came close to failing
   and far from every run (exploration), with no weight to tune;
@@ -22,9 +24,14 @@ It is ordinary kriging on the unit box, small enough to refit every batch:
 
 It is fitted to at most :data:`KEEP` runs (the best half and the most recent
 others) and scores :data:`CANDIDATES` points, so its cost per batch stays about
-a millisecond whatever the budget (the products stay small enough for the BLAS
-library to run them on one thread: on a busy machine its threads only wait for
-one another).
+half a millisecond whatever the budget (the products stay small enough for the
+BLAS library to run them on one thread: on a busy machine its threads only wait
+for one another; LAPACK's Cholesky and triangular solves are called directly,
+as NumPy's and SciPy's wrappers cost more than these small matrices' arithmetic).
+
+:func:`quadratic_minimum` is the minimum of a quadratic model fitted to the best
+runs (as in lq-CMA-ES); with ``check`` it is given only when the model ranks its
+own runs (leave-one-out, Kendall's tau of at least :data:`TRUST`).
 NumPy and SciPy (the ``search`` extra) are imported where they are used.
 """
 
@@ -33,12 +40,21 @@ from __future__ import annotations
 import math
 from typing import Any, Sequence
 
-__all__ = ["Model", "quadratic_minimum", "KEEP", "CANDIDATES"]
+__all__ = ["Model", "quadratic_minimum", "KEEP", "CANDIDATES", "REFIT", "TRUST"]
 
 KEEP = 32
 """Most runs the model is fitted to."""
 CANDIDATES = 256
 """Candidate points per batch (half uniform, half around the best runs)."""
+TRUST = 0.85
+"""The quadratic model's leave-one-out rank correlation with its runs below which its minimum is not
+proposed (lq-CMA-ES's threshold for trusting its model)."""
+REFIT = 1.25
+"""The scales are fitted at every batch while the model sees every run (up to :data:`KEEP`); after that
+again once the runs told have grown by this factor since their last fit (the factor and the
+prediction are computed for every batch)."""
+_SPREAD = (0.02, 0.05, 0.1, 0.2)
+"""Distances (standard deviations, in the unit box) of the candidates around the best runs."""
 _FIRST = (0.05, 0.1, 0.2, 0.35, 0.6, 1.0)
 _NUGGET = 1e-6
 _LONGEST = 4.0
@@ -50,6 +66,8 @@ class Model:
     def __init__(self, rng: Any):
         self.rng = rng
         self.scales: Any = None
+        self.fitted = 0
+        """How many runs had been told when the scales were last fitted."""
 
     def propose(self, X: Sequence[Sequence[float]], y: Sequence[float], n: int, first: Any = None) -> list[list[float]]:
         """*n* points of the unit box most likely to fail (objective < 0) under the model fitted to the
@@ -57,7 +75,6 @@ class Model:
         (*first*, if given, is taken first whatever its score: the others spread around it).
         Uniform points when fewer than two runs are known."""
         import numpy as np
-        from scipy import linalg
         from scipy.linalg import lapack
         from scipy.special import ndtr
 
@@ -66,18 +83,23 @@ class Model:
         d = Xa.shape[1] if Xa.ndim == 2 else 0
         if len(ya) < 2 or d == 0:
             return [[float(u) for u in row] for row in rng.random((n, d))]
+        told = len(ya)
         if len(ya) > KEEP:  # the best half and the most recent others
             order = np.argsort(ya, kind="stable")
             best = set(order[: KEEP // 2].tolist())
             recent = [i for i in range(len(ya) - 1, -1, -1) if i not in best][: KEEP - len(best)]
             keep = sorted(best | set(recent))
             Xa, ya = Xa[keep], ya[keep]
-        mu = float(ya.mean())
+        mu = float(ya.sum()) / len(ya)
         r = ya - mu
-        sq = (Xa[:, None, :] - Xa[None, :, :]) ** 2  # n x n x d
-        self.scales = self._scales(np, linalg, sq, r, d)
-        L = self._factor(np, sq, self.scales)
-        inverse = np.tril(lapack.dtrtri(L, lower=1)[0])  # L^-1 (LAPACK's; a triangular solve with n right-hand sides is far slower)
+        sq = ((Xa[:, None, :] - Xa[None, :, :]) ** 2).reshape(-1, d)  # (n x n) x d
+        L = None
+        if self.scales is None or len(self.scales) != d or told <= KEEP or told >= REFIT * self.fitted:
+            self.scales, L = self._scales(np, lapack, sq, r, d)
+            self.fitted = told
+        if L is None:  # the scales kept, or no candidate's matrix factored with the smallest nugget
+            L = self._factor(np, lapack, sq, self.scales)
+        inverse = lapack.dtrtri(L, lower=1)[0]  # L^-1 (LAPACK's; a triangular solve with n right-hand sides is far slower)
         a = inverse @ r
         s2 = max(float(a @ a) / len(r), 1e-300)
         alpha = inverse.T @ a
@@ -85,13 +107,14 @@ class Model:
         m = max(CANDIDATES, 2 * n)
         m_local = m // 2
         ranked = np.argsort(ya, kind="stable")[:4]
-        centres = Xa[ranked[np.arange(m_local) % len(ranked)]]
-        spread = np.array([0.02, 0.05, 0.1, 0.2])[np.arange(m_local) % 4][:, None]
-        local = np.clip(centres + rng.normal(0.0, 1.0, size=(m_local, d)) * spread, 0.0, 1.0)
-        C = np.vstack([rng.random((m - m_local, d)), local] + ([np.asarray(first, dtype=float)[None, :]] if first is not None else []))
+        turns = np.arange(m_local)
+        centres = Xa[ranked[turns % len(ranked)]]
+        spread = np.asarray(_SPREAD)[turns % len(_SPREAD)][:, None]
+        local = np.minimum(np.maximum(centres + rng.normal(0.0, 1.0, size=(m_local, d)) * spread, 0.0), 1.0)
+        C = np.concatenate([rng.random((m - m_local, d)), local] + ([np.asarray(first, dtype=float)[None, :]] if first is not None else []))
         Xs, Cs = Xa / self.scales, C / self.scales
-        diff = Xs[:, None, :] - Cs[None, :, :]
-        k = np.exp(-0.5 * (diff * diff).sum(axis=2))  # n x m
+        cc = (Cs * Cs).sum(axis=1)
+        k = np.exp(np.minimum(Xs @ Cs.T - 0.5 * (Xs * Xs).sum(axis=1)[:, None] - 0.5 * cc[None, :], 0.0))  # n x m
         V = inverse @ k
         mean = mu + k.T @ alpha
         var = np.maximum(1.0 - (V * V).sum(axis=0), 1e-12)  # in units of s2
@@ -102,64 +125,69 @@ class Model:
             score[chosen] = -1.0
             j = len(C) - 1 if first is not None and not chosen else int(np.argmax(score))
             chosen.append(j)
+            if len(chosen) == n:  # the batch is complete: nothing more to believe
+                break
             # kriging believer: the point is told as predicted; the variance around it shrinks
-            diff = Cs - Cs[j]
-            cov = np.exp(-0.5 * (diff * diff).sum(1)) - V.T @ V[:, j]
+            cov = np.exp(np.minimum(Cs @ Cs[j] - 0.5 * cc - 0.5 * cc[j], 0.0)) - V.T @ V[:, j]
             if var[j] > 1e-9:  # a point the runs already pin down teaches nothing (and would divide by ~0)
                 row = cov / math.sqrt(float(var[j]))
                 var = np.maximum(var - row * row, 1e-12)
-                V = np.vstack([V, row[None, :]])
-        return [[float(u) for u in C[j]] for j in chosen]
+                V = np.concatenate([V, row[None, :]])
+        return C[chosen].tolist()  # type: ignore[no-any-return]
 
-    def _scales(self, np: Any, linalg: Any, sq: Any, r: Any, d: int) -> Any:
-        """The length scales with the best profile likelihood among a few candidates."""
-        best: tuple[float, Any] | None = None
+    def _scales(self, np: Any, lapack: Any, sq: Any, r: Any, d: int) -> tuple[Any, Any]:
+        """The length scales with the best profile likelihood among a few candidates, and the Cholesky
+        factor of their correlation matrix (None when no candidate's factored)."""
+        best: tuple[float, Any, Any] = (-math.inf, None, None)
         if self.scales is None or len(self.scales) != d:
             for s in _FIRST:
-                best = self._better(np, linalg, best, np.full(d, s), sq, r)
+                best = self._better(np, lapack, best, np.full(d, s), sq, r)
             factors = (0.5, 2.0)
         else:
-            best = self._better(np, linalg, None, self.scales.copy(), sq, r)
+            best = self._better(np, lapack, best, self.scales.copy(), sq, r)
             factors = (0.6, 1.6)
         for i in range(d if d > 1 else 0):
-            base = best[1]  # type: ignore[index]
+            base = best[1]
             for f in factors:
                 trial = base.copy()
                 trial[i] = min(_LONGEST, trial[i] * f)
-                best = self._better(np, linalg, best, trial, sq, r)
-        return best[1]  # type: ignore[index]
+                best = self._better(np, lapack, best, trial, sq, r)
+        return best[1], best[2]
 
     @staticmethod
-    def _better(np: Any, linalg: Any, best: tuple[float, Any] | None, scales: Any, sq: Any, r: Any) -> tuple[float, Any]:
+    def _better(np: Any, lapack: Any, best: tuple[float, Any, Any], scales: Any, sq: Any, r: Any) -> tuple[float, Any, Any]:
+        """*best* or *scales* with its factor, whichever has the higher profile likelihood (the first
+        candidate is taken even when its matrix does not factor, as the fallback's scales)."""
         n = len(r)
-        R = np.exp(-0.5 * (sq / (scales * scales)).sum(axis=2)) + _NUGGET * np.eye(n)
-        try:
-            L = np.linalg.cholesky(R)
-        except np.linalg.LinAlgError:
-            return best if best is not None else (-math.inf, scales)
-        a = linalg.solve_triangular(L, r, lower=True, check_finite=False)
-        ll = -0.5 * n * math.log(max(float(a @ a) / n, 1e-300)) - float(np.log(np.diag(L)).sum())
-        if best is None or ll > best[0] + 1e-9:
-            return (ll, scales)
+        R = np.exp(sq @ (-0.5 / (scales * scales))).reshape(n, n)
+        R.flat[:: n + 1] += _NUGGET
+        L, info = lapack.dpotrf(R, lower=1, clean=1)  # LAPACK's directly: numpy's and SciPy's wrappers cost more than the work
+        if info != 0:
+            return best if best[1] is not None else (-math.inf, scales, None)
+        a = lapack.dtrtrs(L, r, lower=1)[0]
+        ll = -0.5 * n * math.log(max(float(a @ a) / n, 1e-300)) - float(np.log(L.diagonal()).sum())
+        if best[1] is None or best[2] is None or ll > best[0] + 1e-9:
+            return (ll, scales, L)
         return best
 
     @staticmethod
-    def _factor(np: Any, sq: Any, scales: Any) -> Any:
-        R = np.exp(-0.5 * (sq / (scales * scales)).sum(axis=2))
-        n = len(R)
+    def _factor(np: Any, lapack: Any, sq: Any, scales: Any) -> Any:
+        n = math.isqrt(len(sq))
+        R = np.exp(sq @ (-0.5 / (scales * scales))).reshape(n, n)
         for nugget in (_NUGGET, 1e-4, 1e-2, 1.0):
-            try:
-                return np.linalg.cholesky(R + nugget * np.eye(n))
-            except np.linalg.LinAlgError:
-                continue
+            L, info = lapack.dpotrf(R + nugget * np.eye(n), lower=1, clean=1)
+            if info == 0:
+                return L
         return np.eye(n)  # not reached: R + I is positive definite
 
 
-def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng: Any) -> Any:
+def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng: Any, check: bool = False) -> Any:
     """The minimum of a quadratic model of the objective fitted to the best runs (*told*: continuous unit
     points and objectives), as lq-CMA-ES does: a full quadratic once there are (d + 1)(d + 2)/2 + 2
-    runs, one without cross terms from 2 d + 3; None with fewer. Searched over points around the best
-    run and uniform ones."""
+    runs, one without cross terms from 2 d + 3; None with fewer. With *check*, also None when the
+    model does not rank its own runs: each run predicted by the model fitted to the others
+    (leave-one-out) must order them with a Kendall rank correlation of at least :data:`TRUST`.
+    Searched over points around the best run and uniform ones."""
     import numpy as np
 
     full = (d + 1) * (d + 2) // 2
@@ -183,9 +211,28 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng
             cols += [P[:, i] ** 2 for i in range(d)]
         return np.stack(cols, axis=1)
 
-    coef = np.linalg.lstsq(features(X), Y, rcond=None)[0]
+    F = features(X)
+    U, sv, Vt = np.linalg.svd(F, full_matrices=False)  # least squares, and each run's leverage
+    rank = sv > sv[0] * max(F.shape) * np.finfo(float).eps  # numpy's lstsq cut-off
+    Uk = U[:, rank]
+    coef = Vt[rank].T @ ((Uk.T @ Y) / sv[rank])
+    if check:
+        leverage = (Uk * Uk).sum(axis=1)
+        if leverage.max() > 1.0 - 1e-9:  # a run only the model itself fits: it cannot be checked
+            return None
+        loo = Y - (Y - F @ coef) / (1.0 - leverage)  # each run as the model fitted without it predicts it
+        if _kendall(np, loo, Y) < TRUST:
+            return None
     around = np.clip(X[0] + rng.normal(0.0, 0.1, size=(512, d)), 0.0, 1.0)
     candidates = np.vstack([around, rng.random((512, d))])
     values = features(candidates) @ coef
     point = candidates[int(np.argmin(values))]
     return np.clip(point, 0.0, 1.0)
+
+
+def _kendall(np: Any, a: Any, b: Any) -> float:
+    """Kendall's rank correlation of two sequences (tau-a: a tied pair counts as neither order)."""
+    m = len(a)
+    if m < 2:
+        return 0.0
+    return float((np.sign(np.subtract.outer(a, a)) * np.sign(np.subtract.outer(b, b))).sum()) / (m * (m - 1))

@@ -40,9 +40,10 @@ from typing import Any, Mapping
 
 import networkx as nx
 import py_trees
-from py_trees.composites import Parallel, Sequence
+from py_trees.composites import Sequence
 
 from ..leaves import Environment, Registry
+from ..leaves.composites import Parallel
 from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
 from ..model import Entry
 from ..timeline import topological_positions

@@ -22,9 +22,9 @@ from __future__ import annotations
 from typing import Sequence as Seq
 
 import py_trees
-from py_trees.composites import Parallel
 
 from ..leaves import Environment, Registry
+from ..leaves.composites import Parallel
 from ..leaves.wiring import OrMember
 from ..model import Criterion
 

@@ -30,7 +30,8 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from ..contracts.environment import Environment
-from .node import Node
+from .composites import Parallel
+from .node import STATUSES, Node
 
 __all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
 
@@ -38,7 +39,7 @@ EXECUTE = None
 """``Completion(marks=EXECUTE)`` marks the whole execute subtree."""
 
 
-class TreeRoot(py_trees.composites.Parallel):
+class TreeRoot(Parallel):
     """The root of a generated tree: a py_trees ``Parallel`` that begins each tick by reading the clock.
 
     :meth:`tick` calls :meth:`Environment.begin_tick <btgen_pytrees.leaves.Environment.begin_tick>`
@@ -90,6 +91,23 @@ class Completion(py_trees.decorators.Decorator, Node):
         super().__init__(name=name or f"{marks or 'execute'} done", child=child)
         self.env = env
         self.marks = marks
+
+    def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
+        """``Decorator.tick``: initialise when not running, tick the child, update, stop on a final status,
+        yield the node - without building ``list(Status)`` or a debug line nobody prints (as :class:`Node`)."""
+        if py_trees.logging.level < py_trees.logging.Level.INFO:
+            self.logger.debug(f"{self.__class__.__name__}.tick()")
+        if self.status != Status.RUNNING:
+            self.initialise()
+        yield from self.decorated.tick()
+        new_status = self.update()
+        if new_status not in STATUSES:
+            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
+            new_status = Status.INVALID
+        if new_status != Status.RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
 
     def update(self) -> Status:
         status = self.decorated.status
@@ -145,7 +163,7 @@ class Trigger(Node):
         return Status.RUNNING
 
 
-class WakingParallel(py_trees.composites.Parallel):
+class WakingParallel(Parallel):
     """``Parallel(SuccessOnAll(synchronise=True))`` that skips the ticks of children waiting on a trigger.
 
     The execute root holds one ``Sequence(trigger, ...)`` per join and per

@@ -59,7 +59,8 @@ import py_trees
 from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
-from ..leaves.wiring import TreeRoot, WakingParallel
+from ..leaves.composites import Parallel
+from ..leaves.wiring import Completion, TreeRoot, WakingParallel
 from ..render.nodes import role_of
 from .index import TreeIndex
 
@@ -76,15 +77,17 @@ def _code(status: Status) -> int:
     return 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
 
 _PLAIN, _COMPOSITE, _REACTIVE = 0, 1, 2
-_KEEPS_CHILDREN = (py_trees.composites.Parallel.tick, TreeRoot.tick, WakingParallel.tick, py_trees.decorators.Decorator.tick)
+_KEEPS_CHILDREN = (py_trees.composites.Parallel.tick, Parallel.tick, TreeRoot.tick, WakingParallel.tick,
+                   py_trees.decorators.Decorator.tick, Completion.tick)
 
 
 def _kind(node: py_trees.behaviour.Behaviour) -> int:
     """``_COMPOSITE`` (halts its children only when it finishes) or ``_REACTIVE`` (may halt them any time).
 
     Judged by the ``tick`` the node's class runs (and, for a Sequence, its
-    ``memory``): py_trees' Parallel (and the tree's :class:`TreeRoot` and the
-    execute root's :class:`WakingParallel`) and a plain decorator stop their running children
+    ``memory``): py_trees' Parallel (and the generator's: :class:`~btgen_pytrees.leaves.composites.Parallel`,
+    the tree's :class:`TreeRoot` and the execute root's :class:`WakingParallel`) and a plain decorator
+    (and the generator's :class:`Completion`) stop their running children
     only when they themselves finish, and so does a Sequence with memory; a
     Selector (priority interrupts), a Sequence without memory or any composite
     whose ``tick`` is its own may halt a child while it runs on. Only nodes

@@ -1,0 +1,117 @@
+"""The generator's Parallels: py_trees' own ``Parallel``, ticked without its per-tick overheads.
+
+:class:`Parallel` *is* a ``py_trees.composites.Parallel`` (same ``__init__``, ``setup``,
+``stop``, policy, children, ``current_child``; views, visitors and py_trees' display see
+the class name ``Parallel``); only :meth:`Parallel.tick` is written again, with the same steps
+in the same order - the same children ticked, the same ``stop``/``initialise`` calls, the same
+nodes yielded, the same status and ``current_child`` - minus what py_trees 2.x spends on every
+tick of every Parallel for nothing:
+
+* the debug lines are formatted only when py_trees' logging level would print them
+  (``Logger.debug`` drops them otherwise, after the f-string is built);
+* ``validate_policy_configuration()`` is called where it checks something: for a
+  ``SuccessOnSelected`` policy (for the others it is an ``isinstance`` test that passes);
+* the new status is read in one pass over the children instead of a generator expression
+  for the first failure and another for ``all(...)``.
+
+A small run ticks a handful of Parallels on every tick (the tree's root, the ``roots`` of the
+timeline, the oracle and its groups): the ``cut_in_3d`` SUMO case of ``benchmarks/falsify.py``
+ticks four per tick, about 90 ticks per run (docs/performance.md). ``tests/test_composites.py``
+ticks trees made of these and of py_trees' own classes side by side and compares every node's
+status, ``current_child`` and the nodes yielded, on every tick.
+"""
+
+from __future__ import annotations
+
+import typing
+
+import py_trees
+from py_trees.common import ParallelPolicy, Status
+
+__all__ = ["Parallel"]
+
+_RUNNING, _SUCCESS, _FAILURE, _INVALID = Status.RUNNING, Status.SUCCESS, Status.FAILURE, Status.INVALID
+_ALL, _ONE, _SELECTED = ParallelPolicy.SuccessOnAll, ParallelPolicy.SuccessOnOne, ParallelPolicy.SuccessOnSelected
+_logging = py_trees.logging
+_INFO = py_trees.logging.Level.INFO
+
+
+class Parallel(py_trees.composites.Parallel):
+    """``py_trees.composites.Parallel`` whose :meth:`tick` skips the work py_trees' does for nothing (see the module)."""
+
+    def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
+        """Tick over the children, as ``py_trees.composites.Parallel.tick`` does.
+
+        Yields:
+            a reference to itself or one of its children
+
+        Raises:
+            RuntimeError: if the policy configuration was invalid
+        """
+        debug = _logging.level < _INFO
+        if debug:
+            self.logger.debug(f"{self.__class__.__name__}.tick()")
+        policy = self.policy
+        if isinstance(policy, _SELECTED):
+            self.validate_policy_configuration()
+        children = self.children
+        # reset
+        if self.status != _RUNNING:
+            if debug:
+                self.logger.debug(f"{self.__class__.__name__}.tick(): re-initialising")
+            for child in children:
+                # reset the children, this ensures old SUCCESS/FAILURE status flags
+                # don't break the synchronisation logic below
+                if child.status != _INVALID:
+                    child.stop(_INVALID)
+            self.current_child = None
+            self.initialise()
+        # nothing to do
+        if not children:
+            self.current_child = None
+            self.stop(_SUCCESS)
+            yield self
+            return
+        # process them all first
+        for child in children:
+            if policy.synchronise and child.status == _SUCCESS:
+                continue
+            yield from child.tick()
+        # determine new status: the first failed child, else the policy
+        new_status = _RUNNING
+        self.current_child = children[-1]
+        failed = None
+        succeeded = 0
+        for child in children:
+            status = child.status
+            if status == _FAILURE:
+                failed = child
+                break
+            if status == _SUCCESS:
+                succeeded += 1
+        if failed is not None:
+            self.current_child = failed
+            new_status = _FAILURE
+        elif isinstance(policy, _ALL):
+            if succeeded == len(children):
+                new_status = _SUCCESS
+                self.current_child = children[-1]
+        elif isinstance(policy, _ONE):
+            for child in reversed(children):
+                if child.status == _SUCCESS:
+                    new_status = _SUCCESS
+                    self.current_child = child
+                    break
+        elif isinstance(policy, _SELECTED):
+            if all([c.status == _SUCCESS for c in policy.children]):
+                new_status = _SUCCESS
+                self.current_child = policy.children[-1]
+        else:
+            raise RuntimeError(f"this parallel has been configured with an unrecognised policy [{type(policy)}]") from None
+        # this parallel may have children that are still running
+        # so if the parallel itself has reached a final status, then
+        # these running children need to be terminated so they don't dangle
+        if new_status != _RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self

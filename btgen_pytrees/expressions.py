@@ -36,7 +36,7 @@ import math
 import operator
 import re
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Any, Callable, Iterable, Mapping
 
 __all__ = ["Expression", "ExpressionError", "parse", "why_false", "format_number", "bounds", "conjunction",
@@ -105,9 +105,8 @@ class Expression:
             ExpressionError: a name has no value, or arithmetic failed
                 (division by zero, comparing a number with nothing, ...).
         """
-        missing = [n for n in self.names if n not in values]
-        if missing:
-            raise ExpressionError(f"signal {sorted(missing)[0]!r} has no value")
+        if not (values.keys() >= self.names if type(values) is dict else all(n in values for n in self.names)):
+            raise ExpressionError(f"signal {self._missing(values)!r} has no value")
         scope = {**FUNCTIONS, **values}
         for alias, name in self._aliases:
             scope[alias] = values[name]
@@ -144,9 +143,8 @@ class Expression:
         >>> parse("a > 1 || !flag").judge({"a": 3, "flag": True})
         (True, 2.0)
         """
-        missing = [n for n in self.names if n not in values]
-        if missing:
-            raise ExpressionError(f"signal {sorted(missing)[0]!r} has no value")
+        if not (values.keys() >= self.names if type(values) is dict else all(n in values for n in self.names)):
+            raise ExpressionError(f"signal {self._missing(values)!r} has no value")
         judge, scoped = self._judge
         scope = None
         if scoped:
@@ -155,6 +153,10 @@ class Expression:
                 scope[alias] = values[name]
         truth, margin = judge(values, scope)
         return truth, margin + 0.0  # -0.0 is 0
+
+    def _missing(self, values: Mapping[str, Any]) -> str:
+        """The first name (in sorted order) that has no value in *values*."""
+        return sorted(n for n in self.names if n not in values)[0]
 
     @cached_property
     def _judge(self) -> tuple[_Judge, bool]:
@@ -219,10 +221,25 @@ def _check(tree: ast.AST, aliases: Mapping[str, str]) -> frozenset[str]:
     return frozenset(names)
 
 
+PARSED = 1024
+"""Expressions :func:`parse` keeps by their text (the least recently used forgotten first)."""
+
+
 def parse(text: str) -> Expression:
-    """Parse and check *text*; raise :class:`ExpressionError` if it is not in the language."""
+    """Parse and check *text*; raise :class:`ExpressionError` if it is not in the language.
+
+    An :class:`Expression` is immutable and depends on its text alone, so the same text gives the same
+    object, parsed, checked and compiled once (and its robustness evaluator built once) for all the
+    cases of a process that hold it: the runs of a sweep or a search validate a concrete case each,
+    most of whose expressions are those of the one before (:data:`PARSED` are kept).
+    """
     if not isinstance(text, str):
         raise ExpressionError("an expression must be a string")
+    return _parse(text)
+
+
+@lru_cache(maxsize=PARSED)
+def _parse(text: str) -> Expression:
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
     if not text.strip():

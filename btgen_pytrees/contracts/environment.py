@@ -72,6 +72,7 @@ from ..clock import Clock, WallClock
 __all__ = ["Environment", "unique_namespace"]
 
 _used_namespaces: set[str] = set()
+_last_number: dict[str, int] = {}  # base -> the number of the last namespace given for it (1: the base itself)
 
 
 def unique_namespace(test_name: str) -> str:
@@ -83,11 +84,14 @@ def unique_namespace(test_name: str) -> str:
     '/btgen_pytrees/my_test#2'
     """
     base = "/btgen_pytrees/" + (re.sub(r"[^A-Za-z0-9_-]", "_", test_name)[:64] or "_")
-    candidate, n = base, 1
-    while candidate in _used_namespaces:
-        n += 1
+    candidate, n = base, _last_number.get(base, 1)  # '#' is never in a base: '<base>#n' is only ever this base's
+    if n > 1:
+        candidate = f"{base}#{n}"
+    while candidate in _used_namespaces:  # from the last number given, not from 1: a process that generates
+        n += 1  # many trees of one case (a sweep, a search) would try every number taken before
         candidate = f"{base}#{n}"
     _used_namespaces.add(candidate)
+    _last_number[base] = n
     return candidate
 
 
@@ -242,7 +246,12 @@ class Environment:
         storage, prefix = Blackboard.storage, self._signals
         if client is not None and Blackboard.activity_stream is not None:
             return {n: getattr(client, prefix + n) for n in names if prefix + n in storage}
-        return {n: storage[prefix + n] for n in names if prefix + n in storage}
+        found = {}
+        for n in names:  # one key made per name (every oracle and `until` reads its values every tick)
+            key = prefix + n
+            if key in storage:
+                found[n] = storage[key]
+        return found
 
     def publish(self, name: str, value: Any) -> None:
         """Set signal *name* as its owner outside the tree (a system, the host): the tree's

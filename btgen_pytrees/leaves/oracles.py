@@ -32,12 +32,12 @@ from typing import Any
 from py_trees.common import Status
 
 from ..contracts.environment import Environment
-from ..expressions import ExpressionError, conjunction, format_number, why_false
+from ..expressions import ExpressionError, format_number, why_false
 from ..model import Criterion
 from .node import Node
 from .simulated import reached
 
-__all__ = ["Outcome", "Oracle", "Record", "Period", "Final"]
+__all__ = ["Outcome", "Oracle", "Record", "Period", "Final", "always"]
 
 
 @dataclass
@@ -63,6 +63,22 @@ MAX_SAMPLES = 1000
 """Most value changes an oracle keeps (``samples``, a fallback for plots; the run's trace has the
 full signal history). What the reports need is kept apart and always: the first violation and the
 last values read (:class:`Outcome`). Unbounded, a 485-byte case reached 3 GB."""
+
+
+def always(before: float | None, margin: float | None) -> float | None:
+    """The margin of "always" over the ticks judged before (*before*) and one more (*margin*):
+    ``expressions.conjunction((before, margin))`` - their minimum, an unknown (None) part unknown
+    unless the known one is below 0 - for two parts, without the lists it makes (every tick of
+    every ``record`` and ``period`` calls it).
+
+    >>> always(2.0, -1.0), always(2.0, None), always(None, -1.0), always(None, None)
+    (-1.0, None, -1.0, None)
+    """
+    if before is None:
+        return None if margin is None or margin >= 0 else margin
+    if margin is None:
+        return None if before >= 0 else before
+    return margin if margin < before else before
 
 
 class Oracle(Node):
@@ -100,7 +116,7 @@ class Oracle(Node):
         except ExpressionError as exc:
             ok, margin, message = False, None, str(exc)
         if self.judged:  # always: the minimum over the ticks judged
-            margin = conjunction((self.outcome.margin, margin))
+            margin = always(self.outcome.margin, margin)
         self.judged += 1
         self.outcome = Outcome("inconclusive" if ok else "fail", now, message, values, margin)
         if not ok:

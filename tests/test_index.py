@@ -168,3 +168,37 @@ def test_a_report_made_before_a_host_rerun_keeps_its_results(fig1_path: str) -> 
         tree.tick()
     assert collector.report().verdict == "running"
     assert first.to_json() == before and list(first.trace.transitions()) == transitions
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenarios())
+def test_visit_is_run_node_by_node(data: dict[str, Any]) -> None:
+    """Collector.visit (the runner's: a tick's yields in one call) against Collector.run called per node (a
+    host's visitor), on the same yields: two runs of the tree (the start leaf again starts a new report and
+    trace), with a node of no generated tree and a node carrying another index's number among them."""
+    loaded = btgen_pytrees.load(data)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    one, other = Collector(root, record=True), Collector(root, record=True)
+    foreign, misnumbered = py_trees.behaviours.Success("foreign"), py_trees.behaviours.Failure("misnumbered")
+    TreeIndex(py_trees.composites.Sequence("elsewhere", memory=True, children=[misnumbered]))
+    reports = []
+    for _ in range(2):
+        for k in range(600):
+            clock.set(round(k * loaded.tick, 9))
+            yielded = [foreign, *root.tick(), misnumbered]
+            for collector in (one, other):
+                collector.initialise()
+            for node in yielded:
+                one.run(node)
+            other.visit(yielded)
+            for collector in (one, other):
+                collector.finalise()
+            assert one.last == other.last and one.ticks == other.ticks
+            if root.status != Status.RUNNING:
+                break
+        reports.append([(r.to_json(), r.trace.to_data()) for r in (one.report(), other.report())])
+        root.stop(Status.INVALID)
+    for by_run, by_visit in reports:
+        assert by_run == by_visit
+    assert reports[0][1][0] == reports[1][1][0]  # the second run started anew

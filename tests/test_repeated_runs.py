@@ -14,6 +14,7 @@ from typing import Any, Iterator
 import pytest
 from helpers import case, crit, entry
 from hypothesis import given
+from py_trees.blackboard import Blackboard
 from hypothesis import strategies as st
 
 import btgen_pytrees
@@ -192,3 +193,20 @@ def test_namespaces_as_before(names: list[str]) -> None:
         environment._used_namespaces.update(saved[0])
         environment._last_number.clear()
         environment._last_number.update(saved[1])
+
+
+# -- what run() leaves on the blackboard -----------------------------------------------------------------
+
+
+def test_run_takes_its_trees_keys_off_the_blackboard() -> None:
+    """run() made the tree and drops it: its namespace's keys go too, so many runs in one process do not
+    pile up on the blackboard (a host's own keys stay)."""
+    Blackboard.storage["/host/kept"] = 1
+    data = case(entry("A", action="set", signal="x", value=3), entry("B", ["A"]),
+                criteria=[crit("R", "record", "x <= 5"), crit("S", "record", "x <= 6")], relation="||",
+                signals={"x": 0})  # fmt: skip
+    loaded = btgen_pytrees.load(data)
+    before = (set(Blackboard.storage), set(Blackboard.metadata))
+    reports = [run(loaded).to_json() for _ in range(5)]
+    assert (set(Blackboard.storage), set(Blackboard.metadata)) == before
+    assert Blackboard.storage.pop("/host/kept") == 1 and len(set(reports)) == 1 and '"pass"' in reports[0]

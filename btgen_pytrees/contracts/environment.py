@@ -179,6 +179,18 @@ class Environment:
                 client.unregister(clear=False)
         self._clients = []
 
+    def clear(self) -> None:
+        """Take every key under this tree's namespace off the blackboard: values and metadata.
+
+        ``run()`` does it for the tree it made, once its report is made: nobody can reach that tree
+        again, and a process that runs many cases (a sweep, a search: thousands of trees) would
+        otherwise keep every run's signals and flags - the blackboard's storage growing by a run's
+        keys per run, and every later run's start scanning it all (:meth:`start_run`)."""
+        prefix = self.namespace + "/"
+        for table in (Blackboard.storage, Blackboard.metadata):
+            for key in [k for k in table if k.startswith(prefix)]:
+                del table[key]
+
     # -- run lifecycle -------------------------------------------------
     def start_run(self, client: Client | None = None) -> None:
         """Forget what an earlier run of this tree left, then set t0 and the initial signals.

@@ -32,8 +32,9 @@ so a py_trees release that changes ``Behaviour.__init__`` fails there, not in a 
 
 Every node class of this package derives from it (the simulated leaves, the oracles, the wiring's
 leaves and decorators: ``class Completion(py_trees.decorators.Decorator, Node)`` puts it between the
-decorator and ``Behaviour``, so ``Decorator.__init__`` reaches it); the Sequences and Parallels the
-generator builds are py_trees' own classes, and so is every user leaf.
+decorator and ``Behaviour``, so ``Decorator.__init__`` reaches it); the Sequences the generator
+builds are py_trees' own classes, its Parallels py_trees' own with a leaner ``tick``
+(:mod:`btgen_pytrees.leaves.composites`), and every user leaf is the user's.
 """
 
 from __future__ import annotations

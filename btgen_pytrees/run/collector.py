@@ -27,7 +27,7 @@ them from the oracle leaves, which keep their own outcome.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from typing import Callable, Iterable
 
 import py_trees
 from py_trees.common import Status
@@ -170,6 +170,33 @@ class Collector(py_trees.visitors.VisitorBase):
             self._saw(i, watch, code, behaviour)
         if self.recorder is not None:
             self.recorder.seen(i, code)
+
+    def visit(self, behaviours: Iterable[py_trees.behaviour.Behaviour]) -> None:
+        """:meth:`run` for each of *behaviours* in turn (a tick's yields: the runner hands it ``root.tick()``).
+
+        The same steps as :meth:`run`, inline in one loop over what it reads: a visit is a few
+        attribute reads and stores, so a method call and its look-ups per node were most of what the
+        collector added to a tick (on a 20,000-node tick, a third of the run)."""
+        nodes, watch, number = self._nodes, self._watch, self.index.number
+        returned, recorder = self._returned, self.recorder
+        for behaviour in behaviours:
+            try:  # the number the node carries, if it is this tree's (see TreeIndex)
+                i = behaviour.btgen_index  # type: ignore[attr-defined]
+                if nodes[i] is not behaviour:
+                    raise LookupError
+            except (AttributeError, LookupError, TypeError):
+                i = number(behaviour)
+                if i is None:  # not in the generated tree (a host's own node)
+                    continue
+            status = behaviour.status
+            code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
+            returned[i] = code + 1
+            seen = watch[i]
+            if seen:
+                self._saw(i, seen, code, behaviour)
+                returned, recorder = self._returned, self.recorder  # the start leaf again: a new run, new ones
+            if recorder is not None:
+                recorder.seen(i, code)
 
     def _saw(self, i: int, watch: int, code: int, behaviour: py_trees.behaviour.Behaviour) -> None:
         """Node *i* is the root, the start leaf or an entry's: what its tick means."""

@@ -108,7 +108,7 @@ def run_tree(
         system = create_system(case, registry)
     env = root.btgen_env  # type: ignore[attr-defined]
     collector = Collector(root, trace=trace, record=record)  # record: report.trace, for --plot/--replay/--btlog
-    see = collector.run
+    visit = collector.visit
     last = case.ticks - 1
     stop = last if max_work is None else min(last, max_work // work_per_tick(case) - 1)  # the budget's last tick
     saved = env.clock, env.system
@@ -131,8 +131,7 @@ def run_tree(
             system.publish(env)
             collector.initialise()
             try:
-                for node in root.tick():
-                    see(node)
+                visit(root.tick())  # the collector sees every node the tick yields (Collector.run, inline)
             except BaseException as exc:  # noqa: BLE001 - a leaf raised (SystemExit, a SystemFailure too): report it
                 if is_interrupt(exc):
                     raise
@@ -207,7 +206,8 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
         return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress,
                         max_work=max_work, record=record)
     finally:
-        root.btgen_env.release()  # the tree was made here and goes now: its blackboard clients with it
+        root.btgen_env.release()  # the tree was made here and goes now: its blackboard clients with it,
+        root.btgen_env.clear()  # and its keys (a sweep's or a search's thousands of runs would keep them all)
 
 
 def work_per_tick(case: TestCase) -> int:

@@ -269,7 +269,7 @@ def _distance(name: str, search: Search, boundary: Any) -> float:
 # -- searches --------------------------------------------------------------------------------------------
 
 
-def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1, first_seed: int = 0) -> dict[str, Any]:
+def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1, first_seed: int = 0, start: int | None = None) -> dict[str, Any]:
     sweep = _sweep(name)
     space = Space.of(sweep.variations)
     firsts, distances, own, runs_time = [], [], 0.0, 0.0
@@ -279,7 +279,7 @@ def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1,
     for seed in range(first_seed, first_seed + seeds):
         evaluate, spent = _evaluator(sweep)
         t0 = time.perf_counter()
-        settings = Settings(method=method, seed=seed, budget=budget, stop="first", batch=batch)
+        settings = Settings(method=method, seed=seed, budget=budget, stop="first", batch=batch, start=start)
         search = Search(space, sweep.defaults, settings, evaluate, groups).run()
         total = time.perf_counter() - t0
         own += total - spent[0]
@@ -484,6 +484,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated methods")
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--first-seed", type=int, default=0, help="the searches' seeds are FIRST_SEED, FIRST_SEED + 1, ... (default 0)")
+    parser.add_argument("--start", type=int, default=None, help="space-filling runs first (the search block's start; default: the method's)")
     parser.add_argument("--budget", type=int, default=200)
     parser.add_argument("--batch", type=int, default=1,
                         help="runs asked and told together (default 1: the runs are in-process, one at a time, and falsify's batch is its worker count)")  # fmt: skip
@@ -506,7 +507,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows = []
     for c in cases:
         for m in args.methods.split(","):
-            rows.append(search_case(c, m, args.seeds, args.budget, args.batch, args.first_seed))
+            rows.append(search_case(c, m, args.seeds, args.budget, args.batch, args.first_seed, args.start))
             print(f"{c} {m}: median {rows[-1]['median']}, found {rows[-1]['found']}/{args.seeds}", file=sys.stderr)
     text = table(rows, truths, args.budget)
     loop = sumo_loop() if args.sumo_loop else None

@@ -500,6 +500,20 @@ def test_the_benchmark_runs() -> None:
     assert row["boundary_max"] <= 1.0  # within the declared resolution of the ellipse
 
 
+def test_the_benchmark_takes_the_first_seed_and_the_start(tmp_path: pathlib.Path) -> None:
+    """--first-seed S runs the seeds S, S + 1, ... (the same search as search_case's seed S); --start N is
+    the search block's start (another start, other searches)."""
+    sys.path.insert(0, str(ROOT))
+    from benchmarks import falsify as bench
+
+    out = tmp_path / "b.json"
+    assert bench.main(["--cases", "island_2d", "--methods", "auto", "--seeds", "2", "--first-seed", "3", "--budget", "40",
+                       "--json", str(out)]) == 0  # fmt: skip
+    firsts = json.loads(out.read_text())["rows"][0]["firsts"]
+    assert firsts == [bench.search_case("island_2d", "auto", 1, 40, first_seed=s)["firsts"][0] for s in (3, 4)]
+    assert bench.search_case("island_2d", "auto", 3, 60, start=16)["firsts"] != bench.search_case("island_2d", "auto", 3, 60)["firsts"]
+
+
 
 def test_the_benchmark_counts_the_failing_share_at_the_declared_resolution() -> None:
     """benchmarks/falsify.py's truth for the built-in cases: the equation agrees with every stored real

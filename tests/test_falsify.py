@@ -366,6 +366,26 @@ def test_the_length_scales_are_refitted_every_batch_until_the_model_keeps_a_subs
     assert [r.parameters for r in again.runs] == [r.parameters for r in search.runs]
 
 
+def test_a_points_values_are_those_of_its_snapped_point() -> None:
+    """Space.snapped (the search's one pass per run) gives what snap then values give, for every kind of
+    parameter: a continuous value rounded to 1/100 of its resolution is its own value again, a list's
+    choice is the snapped index's (a list holding 1 and 1.0 gives the first)."""
+    import random
+
+    from btgen_pytrees.falsify.space import Dimension, Space
+
+    space = Space((Dimension("a", "range", 0, 10, 0.05), Dimension("b", "range", -3.3, 7.1, 0.007), Dimension("c", "range", 0, 1000, 5),
+                   Dimension("d", "uniform", 1e-3, 2e-3, 1e-5), Dimension("e", "normal", 5.2, 34.8, 0.37, mu=20, sigma=3.7),
+                   Dimension("f", "normal", -4e-4, 4e-4, 1e-5, mu=0, sigma=1e-4), Dimension("g", "list", choices=(1, 1.0, True, "x", 2.5))))  # fmt: skip
+    draw = random.Random(0)
+    for k in range(20000):
+        unit = [draw.choice([0.0, 1.0, 1e-17, 1 - 1e-16, draw.random()]) if d.continuous else float(draw.randrange(5)) for d in space.dimensions]
+        snapped, values = space.snapped(unit)
+        assert snapped == space.snap(unit)
+        expected = space.values(snapped)
+        assert values == expected and all(type(values[k]) is type(expected[k]) for k in values)
+
+
 def test_criteria_without_a_gradient_leave_the_search_space_filling(tmp_path: pathlib.Path) -> None:
     data = island()
     # a comparison of booleans: its margin is 0 wherever the run passes (like a collision count)

@@ -30,6 +30,7 @@ Each bisection round runs a batch: ``batch`` points spread inside the interval
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Generator, Mapping, Sequence
@@ -86,8 +87,9 @@ class Run:
     def verdict(self) -> str:
         return str(self.row.get("verdict", "error"))
 
-    @property
+    @functools.cached_property
     def failed(self) -> bool:
+        """Whether the verdict is ``fail``, ``timeout`` or ``error`` (a run's row is not changed once told)."""
         return self.verdict in FAILING
 
 
@@ -181,8 +183,11 @@ class Search:
                     self._place(r)
 
     def _run_points(self, points: Sequence[Sequence[float]], phase: str) -> list[Run]:
-        units = [self.space.snap(p) for p in points]
-        values = [self.space.values(u) for u in units]
+        units, values = [], []
+        for p in points:
+            u, v = self.space.snapped(p)
+            units.append(u)
+            values.append(v)
         rows = self.evaluate(values)
         out = []
         for u, v, row in zip(units, values, rows):

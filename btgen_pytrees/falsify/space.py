@@ -54,7 +54,7 @@ class Dimension:
     mu: float = 0.0
     sigma: float = 0.0
 
-    @property
+    @functools.cached_property
     def continuous(self) -> bool:
         return self.kind != "list"
 
@@ -100,6 +100,10 @@ class Dimension:
             x = self.value(u)
             here = self.unit(float(x) + self.resolution)
             return max(1e-9, abs((here if here is not None else u) - u))
+        return self._step
+
+    @functools.cached_property
+    def _step(self) -> float:
         span = self.high - self.low
         return self.resolution / span if span > 0 else 1.0
 
@@ -152,6 +156,21 @@ class Space:
     def unit(self, values: Mapping[str, Any]) -> list[float | None]:
         """The unit point of *values* (``None`` where a value is not in the box's choices)."""
         return [d.unit(values.get(d.name)) for d in self.dimensions]
+
+    def snapped(self, unit: Sequence[float]) -> tuple[list[float], dict[str, Value]]:
+        """``(snap(unit), values(snap(unit)))`` in one pass: a continuous value is its own value again
+        (rounded, it runs as written: the values at the snapped point are the values at *unit*)."""
+        out, values = [], {}
+        for d, u in zip(self.dimensions, unit):
+            v = d.value(u)
+            back = d.unit(v)
+            if back is None:
+                out.append(float(u))
+                values[d.name] = v
+            else:
+                out.append(float(back))
+                values[d.name] = v if d.continuous else d.value(back)
+        return out, values
 
     def snap(self, unit: Sequence[float]) -> list[float]:
         """*unit* moved to the point whose values it runs (values are rounded; the search sees what ran)."""

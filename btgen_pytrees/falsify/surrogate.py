@@ -203,13 +203,10 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng
     X = np.array([x for x, _ in best])
     Y = np.array([y for _, y in best])
 
+    rows, cols = np.triu_indices(d) if terms == full else (np.arange(d), np.arange(d))  # the products' pairs, in order
+
     def features(P: Any) -> Any:
-        cols = [np.ones(len(P))] + [P[:, i] for i in range(d)]
-        if terms == full:
-            cols += [P[:, i] * P[:, j] for i in range(d) for j in range(i, d)]
-        else:
-            cols += [P[:, i] ** 2 for i in range(d)]
-        return np.stack(cols, axis=1)
+        return np.concatenate([np.ones((len(P), 1)), P, P[:, rows] * P[:, cols]], axis=1)
 
     F = features(X)
     U, sv, Vt = np.linalg.svd(F, full_matrices=False)  # least squares, and each run's leverage

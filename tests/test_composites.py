@@ -1,11 +1,11 @@
 """The generator's nodes tick as py_trees' own classes do, minus py_trees' per-tick waste.
 
-``leaves.composites.Parallel`` (every Parallel the generator builds, the tree's root too),
-``leaves.node.Node.tick`` (every leaf of the package) and ``leaves.wiring.Completion.tick`` are
-``Parallel.tick``, ``Behaviour.tick`` and ``Decorator.tick`` without what those spend on every tick
-for nothing. Each test ticks two trees side by side: the one as built, and its twin whose nodes run
-py_trees' own ``tick`` (the class swapped for the stock one, or for a subclass with the stock
-``tick``). After every tick both must have yielded the same nodes in the same order, and every node
+``leaves.composites.Parallel`` (every Parallel the generator builds, the tree's root too; its ``tick``
+and ``stop``), ``leaves.node.Node`` (every leaf of the package: ``tick`` and ``stop``) and
+``leaves.wiring.Completion.tick`` are py_trees' ``Parallel``, ``Behaviour`` and ``Decorator`` methods
+without what those spend on every tick for nothing. Each test ticks two trees side by side: the one
+as built, and its twin whose nodes run py_trees' own methods (the class swapped for the stock one, or
+for a subclass with the stock ``tick`` and ``stop``). After every tick both must have yielded the same nodes in the same order, and every node
 must have the same status, feedback and ``current_child``; the reports must be the same; with
 py_trees' debug logging on, both must print the same lines.
 """
@@ -40,40 +40,52 @@ class _StockRoot(TreeRoot):
         self.env.begin_tick()
         yield from py_trees.composites.Parallel.tick(self)
 
+    stop = py_trees.composites.Parallel.stop
+
 
 @lru_cache(maxsize=None)
-def _with_tick(cls: type, tick: Any) -> type:
-    return type(cls.__name__, (cls,), {"tick": tick, "__module__": cls.__module__})
+def _stock(cls: type) -> type:
+    """*cls* with py_trees' own ``tick`` and ``stop`` where it has the lean ones."""
+    methods: dict[str, Any] = {"__module__": cls.__module__}
+    if cls.tick is Node.tick:
+        methods["tick"] = py_trees.behaviour.Behaviour.tick
+    if cls.tick is Completion.tick:
+        methods["tick"] = py_trees.decorators.Decorator.tick
+    if cls.stop is Node.stop:
+        methods["stop"] = py_trees.behaviour.Behaviour.stop
+    if cls.stop is Parallel.stop:
+        methods["stop"] = py_trees.composites.Parallel.stop
+    return type(cls.__name__, (cls,), methods)
 
 
 def stock_twin(root: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
-    """Make every node of *root* whose ``tick`` is one of the lean ones run py_trees' own instead."""
+    """Make every node of *root* that runs one of the lean methods run py_trees' own instead."""
     for node in root.iterate():
         cls = type(node)
         if cls is Parallel:
             node.__class__ = py_trees.composites.Parallel
         elif cls is TreeRoot:
             node.__class__ = _StockRoot
-        elif cls.tick is Completion.tick:
-            node.__class__ = _with_tick(cls, py_trees.decorators.Decorator.tick)
-        elif cls.tick is Node.tick:
-            node.__class__ = _with_tick(cls, py_trees.behaviour.Behaviour.tick)
+        elif cls.tick in (Node.tick, Completion.tick) or cls.stop in (Node.stop, Parallel.stop):
+            node.__class__ = _stock(cls)
     return root
 
 
 def _lean_ticks(root: py_trees.behaviour.Behaviour) -> set[str]:
-    """Which of the lean ticks the tree runs (a test that meets none proves nothing)."""
+    """Which of the lean methods the tree runs (a test that meets none proves nothing)."""
     found = set()
     for node in root.iterate():
-        tick = type(node).tick
-        if tick is Parallel.tick:
+        cls = type(node)
+        if cls.tick is Parallel.tick:
             found.add(f"Parallel {type(node.policy).__name__}")
-        elif tick is Completion.tick:
+        elif cls.tick is Completion.tick:
             found.add("Completion")
-        elif tick is Node.tick:
+        elif cls.tick is Node.tick:
             found.add("Node")
         elif isinstance(node, TreeRoot):
             found.add("TreeRoot")
+        if cls.stop in (Node.stop, Parallel.stop):
+            found.add("stop")
     return found
 
 
@@ -153,7 +165,7 @@ def test_the_examples_run_every_lean_tick() -> None:
                           crit("F", "final", "x >= 4")],
                 relation={"record": "||", "others": "&&"}, signals={"x": 0}, tick=0.1, timeout=10)  # fmt: skip
     used = _lockstep(data)
-    assert used == {"TreeRoot", "Completion", "Node", "Parallel SuccessOnAll", "Parallel SuccessOnOne",
+    assert used == {"TreeRoot", "Completion", "Node", "Parallel SuccessOnAll", "Parallel SuccessOnOne", "stop",
                     "Parallel SuccessOnSelected"}  # the oracle root: the non-record group decides
     failing = case(entry("A", action="until", expect="x >= 9", timeout=0.5), entry("B", ["A"]),
                    criteria=[crit("R", "record", "x <= 5")], signals={"x": 0}, tick=0.1, timeout=10)  # fmt: skip
@@ -204,7 +216,7 @@ def _build(recipe: Any, lean: bool, names: Iterator[int]) -> py_trees.behaviour.
     if recipe[0] == "leaf":
         node = _Scripted(name, recipe[1])
         if not lean:
-            node.__class__ = _with_tick(_Scripted, py_trees.behaviour.Behaviour.tick)
+            node.__class__ = _stock(_Scripted)
         return node
     kind, policy_name, synchronise, children = recipe
     built = [_build(child, lean, names) for child in children]

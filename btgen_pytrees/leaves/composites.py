@@ -12,7 +12,8 @@ tick of every Parallel for nothing:
 * ``validate_policy_configuration()`` is called where it checks something: for a
   ``SuccessOnSelected`` policy (for the others it is an ``isinstance`` test that passes);
 * the new status is read in one pass over the children instead of a generator expression
-  for the first failure and another for ``all(...)``.
+  for the first failure and another for ``all(...)``;
+* :meth:`Parallel.stop` formats its debug line (two Enum members) only when it is printed.
 
 A small run ticks a handful of Parallels on every tick (the tree's root, the ``roots`` of the
 timeline, the oracle and its groups): the ``cut_in_3d`` SUMO case of ``benchmarks/falsify.py``
@@ -115,3 +116,16 @@ class Parallel(py_trees.composites.Parallel):
             self.stop(new_status)
         self.status = new_status
         yield self
+
+    def stop(self, new_status: Status = _INVALID) -> None:
+        """``Parallel.stop``: stop the running children, then the composite's own stop (its debug line
+        formatted only when py_trees' level prints it)."""
+        if _logging.level < _INFO:
+            self.logger.debug(f"{self.__class__.__name__}.stop()[{self.status}->{new_status}]")
+        # clean up dangling (running) children
+        for child in self.children:
+            if child.status == _RUNNING:
+                # this unfortunately knocks out its running status for introspection
+                # but logically is the correct thing to do, see #132.
+                child.stop(_INVALID)
+        py_trees.composites.Composite.stop(self, new_status)

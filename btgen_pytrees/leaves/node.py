@@ -25,7 +25,9 @@ to the same values as ``Behaviour.__init__``, with these differences:
   check the status ``update()`` returned, where a tuple of the same members made once answers the
   same (members compare by identity), and formats its debug line even when py_trees' logging level
   would drop it, where the level is read first. The same ``initialise``/``update``/``stop`` calls in
-  the same order, the same status, the same error line and the same one node yielded.
+  the same order, the same status, the same error line and the same one node yielded; its
+  :meth:`~Node.stop` likewise formats its debug line (two Enum members, slow to format) only when
+  printed, and leaves the fresh ``iterator`` to its first reader.
 
 ``tests/test_node.py`` compares a :class:`Node` with a stock ``Behaviour`` attribute by attribute,
 so a py_trees release that changes ``Behaviour.__init__`` fails there, not in a user's tree.
@@ -103,6 +105,17 @@ class Node(py_trees.behaviour.Behaviour):
             self.stop(new_status)
         self.status = new_status
         yield self
+
+    def stop(self, new_status: Status) -> None:
+        """``Behaviour.stop``: terminate, take the status, a fresh ``tick()`` generator as :attr:`iterator` -
+        made when first read (see the module), as is the debug line, only when py_trees' level prints it."""
+        if _logging.level < _INFO:
+            self.logger.debug("{}.stop({})".format(
+                self.__class__.__name__,
+                (f"{self.status}->{new_status}" if self.status != new_status else f"{new_status}")))  # fmt: skip
+        self.terminate(new_status)
+        self.status = new_status
+        self._iterator = None
 
     @property  # type: ignore[override]
     def blackboards(self) -> list[py_trees.blackboard.Client]:

@@ -90,3 +90,18 @@ def test_the_bare_libsumo_loop_does_the_steps_of_the_search_s_runs() -> None:
     assert loop["runs"] == 4 and min(loop[k] for k in ("search_ms", "bare_ms", "search_fresh_ms", "bare_load_ms")) > 0
     assert set(loop["breakdown_ms"]) == set(loop["breakdown_fresh_ms"]) == {
         "validate", "system and tree", "SUMO start+close", "SUMO steps", "adapter", "tree, collector"}  # fmt: skip
+
+
+@pytest.mark.skipif(__import__("importlib").util.find_spec("libsumo") is None and not __import__("os").environ.get("CI"),
+                    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)")  # fmt: skip
+def test_a_small_run_taken_apart(capsys) -> None:  # type: ignore[no-untyped-def]
+    """benchmarks.small_run: the parts of cut_in_3d's runs (SUMO kept and started per run) and the steady tick."""
+    from benchmarks import small_run
+
+    result = small_run.measure(points=2, rounds=1, ticks=50)
+    for name in ("kept", "fresh"):
+        assert set(result[name]) == {*small_run.PARTS, "python"} and min(result[name].values()) >= 0
+        assert result[name]["python"] == pytest.approx(sum(result[name][p] for p in small_run.PYTHON))
+    assert result["steady_tick_us"] > 0
+    assert small_run.main(["--rounds", "1", "--ticks", "20"]) == 0
+    assert "steady tick" in capsys.readouterr().out

@@ -76,14 +76,14 @@ def _lean_ticks(root: py_trees.behaviour.Behaviour) -> set[str]:
     found = set()
     for node in root.iterate():
         cls = type(node)
-        if cls.tick is Parallel.tick:
+        if isinstance(node, TreeRoot):
+            found.add("TreeRoot")
+        elif cls.tick is Parallel.tick:
             found.add(f"Parallel {type(node.policy).__name__}")
         elif cls.tick is Completion.tick:
             found.add("Completion")
         elif cls.tick is Node.tick:
             found.add("Node")
-        elif isinstance(node, TreeRoot):
-            found.add("TreeRoot")
         if cls.stop in (Node.stop, Parallel.stop):
             found.add("stop")
     return found

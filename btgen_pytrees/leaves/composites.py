@@ -40,8 +40,12 @@ _INFO = py_trees.logging.Level.INFO
 class Parallel(py_trees.composites.Parallel):
     """``py_trees.composites.Parallel`` whose :meth:`tick` skips the work py_trees' does for nothing (see the module)."""
 
+    begin_tick: typing.Callable[[], typing.Any] | None = None
+    """Called first thing in every tick, if a subclass sets it (the tree's root reads the clock): a hook,
+    not a ``tick`` that wraps this one, so the nodes the tick yields pass through one generator less."""
+
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
-        """Tick over the children, as ``py_trees.composites.Parallel.tick`` does.
+        """Tick over the children, as ``py_trees.composites.Parallel.tick`` does (after :attr:`begin_tick`).
 
         Yields:
             a reference to itself or one of its children
@@ -49,6 +53,8 @@ class Parallel(py_trees.composites.Parallel):
         Raises:
             RuntimeError: if the policy configuration was invalid
         """
+        if self.begin_tick is not None:
+            self.begin_tick()
         debug = _logging.level < _INFO
         if debug:
             self.logger.debug(f"{self.__class__.__name__}.tick()")

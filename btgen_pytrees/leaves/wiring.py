@@ -42,8 +42,9 @@ EXECUTE = None
 class TreeRoot(Parallel):
     """The root of a generated tree: a py_trees ``Parallel`` that begins each tick by reading the clock.
 
-    :meth:`tick` calls :meth:`Environment.begin_tick <btgen_pytrees.leaves.Environment.begin_tick>`
-    and then ticks exactly as ``Parallel`` does, so every node of one tick (and
+    Its tick calls :meth:`Environment.begin_tick <btgen_pytrees.leaves.Environment.begin_tick>`
+    (:meth:`begin_tick`, the first step of the generator's :class:`~btgen_pytrees.leaves.composites.Parallel`
+    tick) and then ticks exactly as ``Parallel`` does, so every node of one tick (and
     every visitor, and the report) sees one time - also with a clock that moves
     while the tick runs (the default :class:`~btgen_pytrees.clock.WallClock`).
     Views show it as the ``Parallel`` it is.
@@ -58,9 +59,9 @@ class TreeRoot(Parallel):
         super().__init__(name, policy, children)
         self.env = env
 
-    def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
-        self.env.begin_tick()  # a generator: py_trees calls tick() (without running it) when it builds or stops a node
-        yield from super().tick()
+    def begin_tick(self) -> None:  # type: ignore[override]
+        """Read the clock: the first step of every tick (:attr:`Parallel.begin_tick <btgen_pytrees.leaves.composites.Parallel.begin_tick>`)."""
+        self.env.begin_tick()
 
 
 class RunStart(Node):

@@ -60,7 +60,7 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from ..leaves.composites import Parallel
-from ..leaves.wiring import Completion, TreeRoot, WakingParallel
+from ..leaves.wiring import Completion, WakingParallel
 from ..render.nodes import role_of
 from .index import TreeIndex
 
@@ -77,8 +77,8 @@ def _code(status: Status) -> int:
     return 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
 
 _PLAIN, _COMPOSITE, _REACTIVE = 0, 1, 2
-_KEEPS_CHILDREN = (py_trees.composites.Parallel.tick, Parallel.tick, TreeRoot.tick, WakingParallel.tick,
-                   py_trees.decorators.Decorator.tick, Completion.tick)
+_KEEPS_CHILDREN = (py_trees.composites.Parallel.tick, Parallel.tick, WakingParallel.tick, py_trees.decorators.Decorator.tick,
+                   Completion.tick)  # (TreeRoot's tick is Parallel.tick)
 
 
 def _kind(node: py_trees.behaviour.Behaviour) -> int:
@@ -86,7 +86,7 @@ def _kind(node: py_trees.behaviour.Behaviour) -> int:
 
     Judged by the ``tick`` the node's class runs (and, for a Sequence, its
     ``memory``): py_trees' Parallel (and the generator's: :class:`~btgen_pytrees.leaves.composites.Parallel`,
-    the tree's :class:`TreeRoot` and the execute root's :class:`WakingParallel`) and a plain decorator
+    the tree's :class:`~btgen_pytrees.leaves.wiring.TreeRoot` and the execute root's :class:`WakingParallel`) and a plain decorator
     (and the generator's :class:`Completion`) stop their running children
     only when they themselves finish, and so does a Sequence with memory; a
     Selector (priority interrupts), a Sequence without memory or any composite

@@ -78,9 +78,10 @@ CASES = ("island_2d", "island_4d", "cut_in_3d")
 METHODS = ("auto", "cmaes", "tpe", "sobol", "random")
 TRUTH_GRID: dict[str, Any] = {"island_2d": 101, "island_4d": 9, "cut_in_3d": (15, 11, 9)}
 """Points per parameter of the truth grid (None: the declared resolution)."""
-FOCUS = {"cut_in_3d": ("gap", 1.5, 5.0, 36)}
-"""Where the truth grid is dense: (parameter, low, high, points); outside it a coarse grid (``outside``)
-must fail nowhere, and the share counts the dense part only, weighted by its part of the range."""
+FOCUS = {"cut_in_3d": ("gap", 1.5, 5.0)}
+"""Where the truth grid is dense: (parameter, low, high); there every parameter is at its declared resolution.
+Outside it a coarse grid (``outside``, ``TRUTH_GRID`` points) must fail nowhere, and the share is the dense
+part's failing points over the declared grid's."""
 GOALS = {"median_vs_random": 0.2, "found": 1.0, "boundary_in_resolution": 1.0, "search_cost": 0.05, "sumo_vs_bare": 1.5}
 
 
@@ -117,34 +118,58 @@ def _evaluator(sweep: Any) -> tuple[Callable[[list[dict[str, Any]]], list[dict[s
 
 
 def _axes(name: str, space: Space, focus: bool = False) -> list[list[float]]:
+    """The truth grid's axes: ``TRUTH_GRID`` points per parameter; for a case in ``FOCUS``, its dense part
+    (*focus*: every parameter at the declared resolution, the focus parameter within its range) or the
+    coarse grid outside it."""
     size = TRUTH_GRID[name]
     axes = []
     for k, d in enumerate(space.dimensions):
+        if focus:
+            low, high = FOCUS[name][1:] if FOCUS[name][0] == d.name else (-math.inf, math.inf)
+            axes.append([round(float(v), 6) for v in _declared_axis(d) if low - 1e-9 <= v <= high + 1e-9])
+            continue
         n = d.grid_size() if size is None else (size[k] if isinstance(size, tuple) else size)
-        if focus and FOCUS.get(name, ("",))[0] == d.name:
-            _, low, high, m = FOCUS[name]
-            axes.append([round(low + (high - low) * i / (m - 1), 6) for i in range(m)])
-        else:
-            axes.append([d.value((i / (n - 1)) if n > 1 else 0.5) for i in range(n)])
+        axes.append([d.value((i / (n - 1)) if n > 1 else 0.5) for i in range(n)])
     if not focus and name in FOCUS:  # the coarse grid: only the part outside the focus
         k = [d.name for d in space.dimensions].index(FOCUS[name][0])
         axes[k] = [v for v in axes[k] if v > FOCUS[name][2]]
     return axes
 
 
-def _grid(sweep: Any, names: list[str], axes: list[list[float]]) -> str:
+_SWEEP: Any = None
+"""The case a forked grid process runs (set before the fork, inherited)."""
+
+
+def _grid_part(job: tuple[list[str], list[list[float]], int, int]) -> str:
+    names, axes, begin, end = job
     bits = []
-    for flat in range(math.prod(len(a) for a in axes)):
+    for flat in range(begin, end):
         rest, values = flat, {}
         for n, axis in zip(reversed(names), reversed(axes)):
             rest, i = divmod(rest, len(axis))
             values[n] = axis[i]
-        row = _row(sweep, values)
+        row = _row(_SWEEP, values)
         bits.append("1" if row["verdict"] != "pass" else "0")
     return "".join(bits)
 
 
-def truth(name: str, compute: bool = False) -> dict[str, Any]:
+def _grid(sweep: Any, names: list[str], axes: list[list[float]], jobs: int = 1) -> str:
+    """One character per grid point in sweep order (``1``: the run did not pass); *jobs* forked processes."""
+    global _SWEEP
+    _SWEEP = sweep
+    total = math.prod(len(a) for a in axes)
+    if jobs <= 1:
+        return _grid_part((names, axes, 0, total))
+    import concurrent.futures
+    import multiprocessing
+
+    step = max(1, math.ceil(total / (jobs * 20)))
+    parts = [(names, axes, b, min(total, b + step)) for b in range(0, total, step)]
+    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+        return "".join(pool.map(_grid_part, parts))
+
+
+def truth(name: str, compute: bool = False, jobs: int = 1) -> dict[str, Any]:
     """The stored ground truth of case *name* (computed and stored first if asked or missing)."""
     path = ROOT / "falsify_cases" / f"{name}.truth.json"
     if path.exists() and not compute:
@@ -154,16 +179,16 @@ def truth(name: str, compute: bool = False) -> dict[str, Any]:
     names = [d.name for d in space.dimensions]
     t0 = time.perf_counter()
     axes = _axes(name, space, focus=name in FOCUS)
-    bits = _grid(sweep, names, axes)
+    bits = _grid(sweep, names, axes, jobs)
     total = len(bits)
     share = bits.count("1") / total
     outside = None
     if name in FOCUS:
         coarse = _axes(name, space)
-        outer = _grid(sweep, names, coarse)
+        outer = _grid(sweep, names, coarse, jobs)
         outside = {"axes": dict(zip(names, coarse)), "points": len(outer), "failing": outer.count("1")}
-        d = next(d for d in space.dimensions if d.name == FOCUS[name][0])
-        share *= (FOCUS[name][2] - d.low) / (d.high - d.low)
+        k = names.index(FOCUS[name][0])  # the dense part's share of the declared grid (none fails outside it)
+        share *= len(axes[k]) / space.dimensions[k].grid_size()
     data = {"case": name, "command": f"python -m benchmarks.falsify --truth --cases {name}",
             "axes": dict(zip(names, axes)), "points": total, "failing": bits.count("1"), "share": share,
             "first_failure": bits.index("1") + 1 if "1" in bits else None, "outside": outside,
@@ -496,6 +521,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--batch", type=int, default=1,
                         help="runs asked and told together (default 1: the runs are in-process, one at a time, and falsify's batch is its worker count)")  # fmt: skip
     parser.add_argument("--truth", action="store_true", help="compute the ground-truth grids again and store them")
+    parser.add_argument("--truth-jobs", type=int, default=1, metavar="N", help="processes for --truth's grid (default 1)")
     parser.add_argument("--sumo-loop", action="store_true", help="also compare a SUMO run in a search with a bare libsumo loop")
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
     args = parser.parse_args(argv)
@@ -508,7 +534,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import scipy.special  # noqa: F401
 
     import_s = time.perf_counter() - t0
-    truths = {c: truth(c, args.truth) for c in cases}
+    truths = {c: truth(c, args.truth, args.truth_jobs) for c in cases}
     for c in cases:
         truths[c]["declared"] = declared_truth(c, truths[c])
     rows = []

@@ -45,13 +45,15 @@ class Parallel(py_trees.composites.Parallel):
     not a ``tick`` that wraps this one, so the nodes the tick yields pass through one generator less."""
 
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
-        """Tick over the children, as ``py_trees.composites.Parallel.tick`` does (after :attr:`begin_tick`).
+        """One tick: :attr:`begin_tick`, then the steps of ``py_trees.composites.Parallel.tick`` in its
+        order (see the module).
 
         Yields:
-            a reference to itself or one of its children
+            every node ticked below this one, then this Parallel
 
         Raises:
-            RuntimeError: if the policy configuration was invalid
+            RuntimeError: the policy is not one of py_trees' three, or a ``SuccessOnSelected`` names a
+            node that is not a child
         """
         if self.begin_tick is not None:
             self.begin_tick()
@@ -62,29 +64,24 @@ class Parallel(py_trees.composites.Parallel):
         if isinstance(policy, _SELECTED):
             self.validate_policy_configuration()
         children = self.children
-        # reset
-        if self.status != _RUNNING:
+        if self.status != _RUNNING:  # a new start: every child begins from INVALID
             if debug:
                 self.logger.debug(f"{self.__class__.__name__}.tick(): re-initialising")
-            for child in children:
-                # reset the children, this ensures old SUCCESS/FAILURE status flags
-                # don't break the synchronisation logic below
+            for child in children:  # a child's final status from last time would count as done below
                 if child.status != _INVALID:
                     child.stop(_INVALID)
             self.current_child = None
             self.initialise()
-        # nothing to do
-        if not children:
+        if not children:  # succeeds at once
             self.current_child = None
             self.stop(_SUCCESS)
             yield self
             return
-        # process them all first
-        for child in children:
+        for child in children:  # tick every child (a synchronised one that succeeded waits)
             if policy.synchronise and child.status == _SUCCESS:
                 continue
             yield from child.tick()
-        # determine new status: the first failed child, else the policy
+        # the status: FAILURE from the first child that failed, else what the policy says
         new_status = _RUNNING
         self.current_child = children[-1]
         failed = None
@@ -115,10 +112,7 @@ class Parallel(py_trees.composites.Parallel):
                 self.current_child = policy.children[-1]
         else:
             raise RuntimeError(f"this parallel has been configured with an unrecognised policy [{type(policy)}]") from None
-        # this parallel may have children that are still running
-        # so if the parallel itself has reached a final status, then
-        # these running children need to be terminated so they don't dangle
-        if new_status != _RUNNING:
+        if new_status != _RUNNING:  # finished: children still RUNNING are stopped with it
             self.stop(new_status)
         self.status = new_status
         yield self
@@ -128,10 +122,7 @@ class Parallel(py_trees.composites.Parallel):
         formatted only when py_trees' level prints it)."""
         if _logging.level < _INFO:
             self.logger.debug(f"{self.__class__.__name__}.stop()[{self.status}->{new_status}]")
-        # clean up dangling (running) children
-        for child in self.children:
+        for child in self.children:  # a child left RUNNING would go on alone: it is stopped (to INVALID)
             if child.status == _RUNNING:
-                # this unfortunately knocks out its running status for introspection
-                # but logically is the correct thing to do, see #132.
                 child.stop(_INVALID)
         py_trees.composites.Composite.stop(self, new_status)

@@ -96,7 +96,7 @@ class Node(py_trees.behaviour.Behaviour):
             self.logger.debug(f"{self.__class__.__name__}.tick()")
         if self.status != _RUNNING:
             self.initialise()
-        # don't set self.status yet, terminate() may need to check what the current state is first
+        # self.status keeps the old status until stop(): a leaf's terminate() may read it
         new_status = self.update()
         if new_status not in STATUSES:
             self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")

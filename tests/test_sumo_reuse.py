@@ -18,7 +18,6 @@ from typing import Any
 
 import pytest
 
-import btgen_pytrees
 from btgen_pytrees.leaves import default_registry
 from btgen_pytrees.load import validate
 from btgen_pytrees.run import run

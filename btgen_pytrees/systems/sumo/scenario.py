@@ -101,7 +101,6 @@ OPTIONS: Mapping[str, tuple[Callable[[str], str | None], str]] = {
     "lateral-resolution": (_number(0.01, 10), "sublane width in m (switches on the sublane model)"),
     "default.action-step-length": (_number(0, 10), "seconds between drivers' decisions"),
     "default.speeddev": (_number(0, 1), "default speed deviation of vehicle types"),
-    "default.sigma": (_number(0, 1), "default driver imperfection"),
     "default.carfollowmodel": (_choice("Krauss", "KraussPS", "KraussOrig1", "SmartSK", "Daniel1", "IDM", "IDMM",
                                        "EIDM", "PWagner2009", "BKerner", "Wiedemann", "W99", "Rail", "ACC", "CACC",
                                        "CC"), "car-following model of types that name none"),  # fmt: skip

@@ -329,3 +329,31 @@ def test_a_scenario_file_edited_between_two_runs_is_loaded_anew(tmp_path: pathli
         routes.write_text(RANDOM.replace('departPos="20"', 'departPos="40"'), encoding="utf-8")
         assert here(doc) == after
         assert kept_simulation() not in (None, key)
+
+
+@needs_sumo
+def test_nothing_is_left_open_after_a_block(tmp_path: pathlib.Path) -> None:
+    """No file descriptor (the state's memory files) outlives the block, whatever its runs did: kept, closed
+    for another key, refused by SUMO, interrupted, not restorable."""
+    if not os.path.isdir("/proc/self/fd"):
+        pytest.skip("no /proc")
+    docs = settings(2, seed=6) + randomised(tmp_path)[:2]
+    late = case(scenario(tmp_path / "late", RANDOM.replace('depart="2"', 'depart="250"')), entry("C1", action="wait"),
+                criteria=[crit("R1", "record", "ego.speed >= 0")])  # fmt: skip
+    broken = case(scenario(tmp_path / "broken", RANDOM.replace('accel="2.6"', 'accel="fast"')),
+                  entry("C1", action="wait"), criteria=[crit("R1", "record", "ego.speed >= 0")])  # fmt: skip
+
+    def interrupt(ticks: int, _now: float) -> None:
+        if ticks == 5:
+            raise KeyboardInterrupt
+
+    here(docs[0])  # libsumo imported, its own descriptors open
+    before = sorted(os.listdir("/proc/self/fd"))
+    for _ in range(2):
+        with reuse_simulations():
+            for doc in [*docs, late, docs[0], broken, docs[0], docs[2], docs[2]]:
+                run(validate(doc, SOURCE, default_registry()))
+            with pytest.raises(KeyboardInterrupt):
+                run(validate(docs[1], SOURCE, default_registry()), progress=interrupt)
+            here(docs[1])
+        assert sorted(os.listdir("/proc/self/fd")) == before

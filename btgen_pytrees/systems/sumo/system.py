@@ -294,10 +294,14 @@ class SumoSystem:
                     lib.start(args)
         except Exception as exc:  # noqa: BLE001 - libsumo.TraCIException, FatalTraCIError
             _close(lib)
+            if kept is not None:
+                kept.forget()
             _release(self)
             raise SystemFailure(f"SUMO could not load {self.scenario.config}: {_why(exc, args)}") from None
         except BaseException:
             _close(lib)
+            if kept is not None:
+                kept.forget()
             _release(self)
             raise
         self._kept = kept
@@ -585,7 +589,6 @@ def _why(exc: BaseException, args: list[str]) -> str:
 
 # -- a simulation kept between runs (reuse_simulations) ----------------------------------------------
 
-_RNG_STATE = re.compile(r"\s*<rngState\b[^>]*>.*?</rngState>", re.S)
 _EDGE_CONTROL = re.compile(r"\s*<edgeControl\b[^>]*/>")
 _ATTRIBUTE = re.compile(r'([^\s=]+)="([^"]*)"')
 _LANE_RNG = re.compile(r'<rngLane index="(\d+)" state="([^"]*)"/>')
@@ -596,14 +599,15 @@ _FULL = "1000000"
 def _rngs(text: str) -> tuple[str, dict[str, str], str]:
     """Split a state saved with ``--save-state.rng``: the text before the generators, each generator's saved
     value (``default``, ``routeHandler``, ... and ``lane <i>``), the text after (without ``<edgeControl>``)."""
-    found = _RNG_STATE.search(text)
-    if found is None:
+    begin = text.find("<rngState")
+    close = text.find("</rngState>", begin)
+    if begin < 0 or close < 0:
         raise RuntimeError("SUMO saved no random number generators")
-    element = found.group(0)
-    head = element[element.index("<rngState") + 9:element.index(">")]
-    values = {name: value for name, value in _ATTRIBUTE.findall(head)}
-    values.update((f"lane {i}", value) for i, value in _LANE_RNG.findall(element))
-    return text[:found.start()], values, _EDGE_CONTROL.sub("", text[found.end():])
+    head_end = text.index(">", begin)
+    values = dict(_ATTRIBUTE.findall(text, begin + 9, head_end))
+    values.update((f"lane {i}", value) for i, value in _LANE_RNG.findall(text, head_end, close))
+    begin = len(text[:begin].rstrip())
+    return text[:begin], values, _EDGE_CONTROL.sub("", text[close + 11:], count=1)
 
 
 def _rng_element(values: Mapping[str, str]) -> str:
@@ -639,8 +643,12 @@ class _File:
         os.pwrite(self.fd, data, 0)
 
     def close(self) -> None:
+        """Close it (again: nothing; a descriptor closed twice could be another file's by then)."""
+        if self.fd < 0:
+            return
+        fd, self.fd = self.fd, -1
         with contextlib.suppress(OSError):
-            os.close(self.fd)
+            os.close(fd)
         if self._dir is not None:  # pragma: no cover - not Linux
             with contextlib.suppress(OSError):
                 os.unlink(self.path)

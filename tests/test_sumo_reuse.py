@@ -146,16 +146,18 @@ def test_every_run_on_a_kept_simulation_gives_the_report_of_a_fresh_process(tmp_
         if ticks == 15:
             raise KeyboardInterrupt
 
+    kept = 0
     with reuse_simulations():
         for k, i in enumerate(order):
             assert here(docs[i]) == expected[i], (k, docs[i]["name"])
-            assert kept_simulation() is not None  # left open for the next run
+            kept += kept_simulation() is not None  # left open for the next run
             if k % 9 == 4:
                 with pytest.raises(KeyboardInterrupt):
                     run(validate(docs[i], SOURCE, default_registry()), progress=interrupt)
             if k % 11 == 6:
                 assert run(validate(broken, SOURCE, default_registry())).verdict == "error"
     assert kept_simulation() is None  # the block's end closed it
+    assert kept > len(order) // 2  # the first run of a key learns which generators to hold: not kept
 
 
 @needs_sumo
@@ -166,8 +168,11 @@ def test_the_random_number_generators_are_set_back_too(tmp_path: pathlib.Path) -
     docs = [docs[0], docs[3], docs[2], {**docs[0], "timeout": 5}]  # seed 1; spawn, seed 3; SUMO's seed; seed 1
     expected = fresh(docs, tmp_path)
     with reuse_simulations():
-        for i in (0, 0, 3, 0, 1, 1, 2, 2, 2):  # the same key again and again (0 and 3 share one)
+        assert here(docs[0]) == expected[0]
+        assert kept_simulation() is None  # its first run drew from generators the snapshot did not hold
+        for k, i in enumerate((0, 0, 3, 0, 1, 1, 2, 2, 2)):  # the same key again and again (0 and 3 share one)
             assert here(docs[i]) == expected[i], i
+            assert (kept_simulation() is None) == (k in (4, 6)), k  # a key's first run is not kept
 
 
 @needs_sumo
@@ -179,7 +184,7 @@ def test_a_forked_worker_closes_its_copy_of_a_kept_simulation(tmp_path: pathlib.
     docs = settings(2, seed=9)
     expected = fresh(docs, tmp_path)
     with reuse_simulations():
-        assert here(docs[0]) == expected[0] and kept_simulation() is not None
+        assert here(docs[0]) == expected[0] and here(docs[0]) == expected[0] and kept_simulation() is not None
         with multiprocessing.get_context("fork").Pool(1) as pool:
             assert pool.apply(_child, (docs,)) == (None, expected[1], expected[0])
         assert here(docs[1]) == expected[1] and here(docs[0]) == expected[0]
@@ -201,12 +206,15 @@ def test_outside_a_block_nothing_is_kept_and_another_key_closes_the_kept_one(tmp
     with reuse_simulations():
         with reuse_simulations():
             here(docs[0])
+            here(docs[0])
         first = kept_simulation()  # an inner block's end keeps it for the outer one
         assert first is not None and str(EXAMPLES / "cut_in.sumocfg") in first[0]
+        here(docs[1])
         here(docs[1])
         second = kept_simulation()
         assert second is not None and second != first
         here(docs[2])  # the same scenario, another seed: another command line
+        here(docs[2])
         assert kept_simulation() not in (None, first, second)
     assert kept_simulation() is None
     with pytest.raises(Exception):  # noqa: B017 - libsumo.TraCIException: nothing is loaded
@@ -282,6 +290,7 @@ def work():
     blocks.append(reuse_simulations())
     blocks[-1].__enter__()  # never left
     run(validate(doc, sys.argv[2], default_registry()))
+    run(validate(doc, sys.argv[2], default_registry()))  # the first learns the generators to hold
     assert kept_simulation() is not None
 def child():
     multiprocessing.util.Finalize(None, loaded, ("child",), exitpriority=-1)  # after the library's (priority 0)
@@ -324,10 +333,10 @@ def test_a_scenario_file_edited_between_two_runs_is_loaded_anew(tmp_path: pathli
     routes.write_text(RANDOM, encoding="utf-8")
     assert before != after
     with reuse_simulations():
-        assert here(doc) == before
+        assert here(doc) == before and here(doc) == before
         key = kept_simulation()
         routes.write_text(RANDOM.replace('departPos="20"', 'departPos="40"'), encoding="utf-8")
-        assert here(doc) == after
+        assert here(doc) == after and here(doc) == after
         assert kept_simulation() not in (None, key)
 
 

@@ -9,6 +9,7 @@ sweep row does - and its row gets ``wall``, the run's wall-clock seconds.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from typing import Any, Mapping, Sequence
 
@@ -39,6 +40,6 @@ def job_probe(label: str, options: RunOptions, source: str,
               items: Sequence[tuple[str, Mapping[str, Any], Any]]) -> ChunkOutcome:  # fmt: skip
     """Several runs in one task (like :func:`btgen_pytrees.sweep.jobs.job_chunk`), each guarded and timed;
     SUMO is started once for them (:func:`~btgen_pytrees.systems.sumo.reuse_simulations`)."""
-    with reuse_simulations():
+    with reuse_simulations() if len(items) > 1 else contextlib.nullcontext():  # one run: nothing to keep it for
         parts = [timed(name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} runs", parts=parts)

@@ -16,6 +16,7 @@ guard) runs sweeps and batches alike.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Mapping, Sequence
@@ -132,7 +133,7 @@ def job_chunk(label: str, options: RunOptions, source: str,
     what handing a task to a worker process costs; a chunk pays that once for all its runs,
     and its SUMO runs start SUMO once and set it back between runs (:func:`~btgen_pytrees.systems.sumo.reuse_simulations`).
     """
-    with reuse_simulations():
+    with reuse_simulations() if len(items) > 1 else contextlib.nullcontext():  # one run: nothing to keep it for
         parts = [guard(job_variation, name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} variations", parts=parts)
 

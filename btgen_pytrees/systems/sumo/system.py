@@ -90,6 +90,8 @@ _scopes = 0
 """How many :func:`reuse_simulations` blocks are open in this process (only under :data:`_claim`)."""
 _unrestorable: set[tuple[Any, ...]] = set()
 """Keys whose snapshot could not be taken (SUMO refused a step of it): those start afresh every run."""
+_drawing: dict[tuple[Any, ...], frozenset[str]] = {}
+"""Key -> the random number generators its runs were seen to draw from (see :class:`_Kept`)."""
 
 
 @contextlib.contextmanager
@@ -661,17 +663,21 @@ class _Kept:
     ``simulation.loadState`` restores the vehicles, routes, time and traffic lights, but not SUMO's random
     number generators: loaded without them the next run would go on drawing where the last one stopped;
     loaded with them (``--save-state.rng``) SUMO skips the saved *count* of draws from where each generator
-    is now, not from its seed. So the snapshot carries each generator's full state (SUMO saves that after
-    :data:`_FULL` draws; loading a bare count of :data:`_FULL` sets the counter without touching the state,
-    and the next save writes it out), and after every run the generators that drew are set back to it:
-    a run starts from exactly the state, generators included, that a fresh start gives.
+    is now, not from its seed. So the snapshot carries the full state of the generators this key's runs
+    draw from (SUMO saves a generator's full state once its counter is at :data:`_FULL`; loading a bare
+    count of :data:`_FULL` sets the counter without touching the generator, and the next save writes the
+    state out), and after every run the generators that drew are set back to it: a run starts from exactly
+    the state, generators included, that a fresh start gives. Which generators a key's runs draw from is
+    learnt (:data:`_drawing`): a run that drew from one the snapshot does not hold is exact (it started as
+    a fresh start), but its simulation is closed, and the next start of its key holds that one too.
+    Writing out all 71 full states (about 3 ms) would make the first run of every block that much dearer.
     """
 
     def __init__(self, lib: Any, key: tuple[Any, ...]):
         self.lib, self.key = lib, key
         self.snapshot, self.probe = _File(), _File()
         self.before = self.after = ""
-        self.start_state: dict[str, str] = {}  # each generator's full state at time 0
+        self.start_state: dict[str, str] = {}  # the full state at time 0 of each generator it can set back
         self.now: dict[str, str] = {}  # what SUMO saves for each generator now (at the start of the run)
         self.drew: set[str] = set()  # generators the last run drew from: set back by restore()
 
@@ -681,14 +687,16 @@ class _Kept:
         lib.start([*args, "--save-state.rng", "true"])
         kept = cls(lib, key)
         try:
-            before, counts, after = kept._save()
-            kept._load(before + _rng_element({n: v if " " in v else _FULL for n, v in counts.items()}) + after)
-            kept.before, full, kept.after = kept._save()
-            if set(full) != set(counts) or any(" " not in v for v in full.values()):
-                raise RuntimeError("SUMO did not save the generators' full states")
-            kept.start_state = full
-            kept.now = dict.fromkeys(full, "0")
-            kept._load(kept.before + _rng_element(kept.now) + kept.after)  # small counters: cheap saves
+            before, values, after = kept._save()
+            held = _drawing.get(key, frozenset()) & set(values)
+            if held:  # their full states: a bare count of a million for each, loaded, then saved
+                kept._load(before + _rng_element({n: values[n] if " " in values[n] else _FULL for n in held}) + after)
+                before, values, after = kept._save()
+                if any(" " not in values[n] for n in held):
+                    raise RuntimeError("SUMO did not save the generators' full states")
+            kept.before, kept.after = before, after
+            kept.start_state = {n: values[n] for n in held}
+            kept.now = values
         except Exception:  # noqa: BLE001 - SUMO refused: this key starts afresh from now on
             kept.close()
             _unrestorable.add(key)
@@ -716,6 +724,11 @@ class _Kept:
         if set(values) != set(self.now):
             return False
         self.drew = {name for name, value in values.items() if value != self.now[name]}
+        if not self.drew <= set(self.start_state):  # a generator the snapshot cannot set back: learn it
+            if len(_drawing) >= 256:
+                _drawing.clear()
+            _drawing[self.key] = _drawing.get(self.key, frozenset()) | self.drew
+            return False
         return True
 
     def restore(self) -> bool:

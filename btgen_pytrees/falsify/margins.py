@@ -13,7 +13,7 @@ ones are left out.
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Collection, Mapping, Sequence
 
 from ..model import TestCase
 
@@ -39,19 +39,21 @@ def groups_of(case: TestCase) -> dict[str, tuple[str, list[str]]]:
 
 
 def combine(margins: Mapping[str, float | None], groups: Mapping[str, tuple[str, Sequence[str]]],
-            scales: Mapping[str, float], use: Callable[[str], bool] = lambda _: True) -> float | None:  # fmt: skip
+            scales: Mapping[str, float], graded: Collection[str] | None = None) -> float | None:  # fmt: skip
     """The objective: scaled margins, min/max within each group by its relation, min across groups.
 
-    Criteria for which *use* is false, without a margin or with an infinite one (a truth value: no
-    distance to measure) are left out (``None`` when nothing is left).
+    Criteria without a margin or with an infinite one (a truth value: no distance to measure) are left
+    out, and when *graded* is given the criteria not in it whose margin is not negative (``None`` when
+    nothing is left). Called once per run: one pass over the ids, no call per criterion.
 
     >>> combine({"R1": 2.0, "F1": -1.0, "F2": 3.0}, {"record": ("&&", ["R1"]), "others": ("||", ["F1", "F2"])}, {"R1": 2.0})
     1.0
     """
     totals = []
+    isfinite = math.isfinite
     for relation, ids in groups.values():
-        values = [margins[i] / scales.get(i, 1.0) for i in ids  # type: ignore[operator]
-                  if use(i) and margins.get(i) is not None and math.isfinite(margins[i])]  # type: ignore[arg-type]  # fmt: skip
+        values = [m / scales.get(i, 1.0) for i in ids
+                  if (m := margins.get(i)) is not None and isfinite(m) and (graded is None or i in graded or m < 0)]  # fmt: skip
         if values:
             totals.append(max(values) if relation == "||" else min(values))
     return min(totals) if totals else None

@@ -144,6 +144,7 @@ class Search:
         self.clusters: list[Cluster] = []
         self.scales: dict[str, float] = {}
         self.graded: list[str] | None = None
+        self._graded: frozenset[str] | None = None  # the same, for the objective's look-ups
         self.groups = {g: (relation, list(ids)) for g, (relation, ids) in groups.items()}
         self.notes: list[str] = []
         self.interrupted = False
@@ -206,9 +207,7 @@ class Search:
     def _objective(self, run: Run) -> float | None:
         """The scaled, combined margin; at most 0 for a failing run; None for an error without margins."""
         margins: Mapping[str, float | None] = run.row.get("margins") or {}
-        graded = self.graded
-        value = combine(margins, self.groups, self.scales,
-                        lambda i: graded is None or i in graded or (margins.get(i) is not None and margins[i] < 0))  # type: ignore[operator]  # fmt: skip
+        value = combine(margins, self.groups, self.scales, self._graded)
         if run.failed:
             return 0.0 if value is None or value > 0 else value
         return value
@@ -230,6 +229,7 @@ class Search:
                 graded.append(i)
             self.scales[i] = float(given) if given is not None else (spread if spread > 1e-12 else 1.0)
         self.graded = graded
+        self._graded = frozenset(graded)
         for r in self.runs:
             r.objective = self._objective(r)
         flat = [i for i in ids if i not in graded]

@@ -92,6 +92,20 @@ class Dimension:
         span = self.high - self.low
         return min(1.0, max(0.0, (float(value) - self.low) / span)) if span > 0 else 0.5
 
+    def snapped(self, u: float) -> tuple[float, Value]:
+        """``(unit(value(u)), value(u))`` (*u* itself where the value is not in the box), in one call: a
+        range's and a uniform prior's inline (every run's values go through it)."""
+        if self.kind == "range" or self.kind == "uniform":
+            span = self.high - self.low
+            x = round(self.low + min(1.0, max(0.0, float(u))) * span, self.digits) + 0.0
+            v = int(x) if x.is_integer() and abs(x) < 1e15 and self.resolution >= 1 else x
+            return (min(1.0, max(0.0, (float(v) - self.low) / span)) if span > 0 else 0.5), v
+        v = self.value(u)
+        back = self.unit(v)
+        if back is None:
+            return float(u), v
+        return float(back), (v if self.continuous else self.value(back))
+
     def unit_resolution(self, u: float) -> float:
         """The resolution as a step of the unit coordinate near *u*."""
         if not self.continuous:
@@ -162,14 +176,8 @@ class Space:
         (rounded, it runs as written: the values at the snapped point are the values at *unit*)."""
         out, values = [], {}
         for d, u in zip(self.dimensions, unit):
-            v = d.value(u)
-            back = d.unit(v)
-            if back is None:
-                out.append(float(u))
-                values[d.name] = v
-            else:
-                out.append(float(back))
-                values[d.name] = v if d.continuous else d.value(back)
+            back, values[d.name] = d.snapped(u)
+            out.append(back)
         return out, values
 
     def snap(self, unit: Sequence[float]) -> list[float]:

@@ -97,15 +97,19 @@ class Model:
         if self.scales is None or len(self.scales) != d or told <= KEEP or told >= REFIT * self.fitted:
             self.scales, L = self._scales(np, lapack, sq, r, d)
             self.fitted = told
+        # candidates: uniform, and around the best runs at several distances
+        m = max(CANDIDATES, 2 * n)
+        m_local = m // 2
+        if first is not None and n == 1:  # the batch is *first* alone: nothing to score, but the same draws
+            rng.normal(0.0, 1.0, size=(m_local, d))  # (the generator moves on as if the candidates were scored)
+            rng.random((m - m_local, d))
+            return [[float(u) for u in first]]
         if L is None:  # the scales kept, or no candidate's matrix factored with the smallest nugget
             L = self._factor(np, lapack, sq, self.scales)
         inverse = lapack.dtrtri(L, lower=1)[0]  # L^-1 (LAPACK's; a triangular solve with n right-hand sides is far slower)
         a = inverse @ r
         s2 = max(float(a @ a) / len(r), 1e-300)
         alpha = inverse.T @ a
-        # candidates: uniform, and around the best runs at several distances
-        m = max(CANDIDATES, 2 * n)
-        m_local = m // 2
         ranked = np.argsort(ya, kind="stable")[:4]
         turns = np.arange(m_local)
         centres = Xa[ranked[turns % len(ranked)]]

@@ -308,6 +308,51 @@ def _island_search(name: str, **settings: Any) -> Any:
     return Search(Space.of(sweep.variations), sweep.defaults, Settings(**settings), evaluate, {"others": ("&&", ["F1"])})
 
 
+@pytest.mark.filterwarnings("ignore:The balance properties")
+def test_the_sobol_points_are_scipys_scrambled_sequence_bit_for_bit() -> None:
+    """The start's Sobol points (drawn without building SciPy's engine per search): the points of
+    ``qmc.Sobol(d, scramble=True, seed=seed)`` in its order, bit for bit, past the 256 worked out
+    directly (where SciPy's engine takes over, fast-forwarded); and a real search with the ``sobol``
+    method runs exactly SciPy's points, snapped to the values that ran."""
+    from scipy.stats import qmc
+
+    from btgen_pytrees.falsify.sampler import Sobol
+
+    for d in (1, 2, 3, 4, 6):
+        for seed in (0, 1, 7, 123, 10**6, 2**40):
+            ours, scipy = Sobol(d, seed), qmc.Sobol(d=d, scramble=True, seed=seed)
+            for i in range(300 if seed in (0, 7) else 40):
+                a, b = ours.next(), scipy.random(1)[0]
+                assert a.dtype == b.dtype and a.tolist() == b.tolist(), (d, seed, i)
+
+    search = _island_search("island_4d", method="sobol", seed=5, budget=24, batch=8).run()
+    expected = qmc.Sobol(d=4, scramble=True, seed=5).random(24)
+    assert [r.unit for r in search.runs] == [search.space.snapped(p.tolist())[0] for p in expected]
+
+
+def test_a_batch_that_is_the_quadratics_point_alone_draws_what_a_scored_one_draws() -> None:
+    """At batch 1 a batch whose first point is the quadratic's is that point alone: the model fits its
+    length scales and moves its generator on exactly as when it scores its candidates (so the search's
+    later batches are the same), without scoring them; a real island_2d search at batch 1, where the
+    quadratic's point is taken, finds the island as before."""
+    import numpy as np
+
+    from btgen_pytrees.falsify.surrogate import Model
+
+    rng = np.random.default_rng(4)
+    X = [[float(u) for u in p] for p in rng.random((12, 2))]
+    y = [float((x[0] - 0.3) ** 2 + (x[1] - 0.7) ** 2 - 0.005) for x in X]
+    alone, scored = Model(np.random.default_rng(1)), Model(np.random.default_rng(1))
+    first = np.array([0.9, 0.1])
+    assert alone.propose(X, y, 1, first=first) == [[0.9, 0.1]]
+    assert scored.propose(X, y, 2, first=first)[0] == [0.9, 0.1]  # the same draws: a believer's step draws nothing
+    assert alone.scales.tolist() == scored.scales.tolist() and alone.fitted == scored.fitted == 12
+    assert alone.rng.random(4).tolist() == scored.rng.random(4).tolist()
+
+    search = _island_search("island_2d", seed=0, budget=40, batch=1, stop="first").run()
+    assert search.first_failure == 8  # the benchmark's median at batch 1 (docs/performance.md)
+
+
 def test_the_quadratic_models_minimum_is_proposed_only_when_it_ranks_its_runs() -> None:
     """The gp method's quadratic point: on island_2d (its margin is a bowl in both parameters) the model
     fitted to 16 Sobol runs predicts each run from the others in their order, and its minimum lies in

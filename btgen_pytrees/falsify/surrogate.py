@@ -37,6 +37,7 @@ NumPy and SciPy (the ``search`` extra) are imported where they are used.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, Sequence
 
@@ -111,9 +112,8 @@ class Model:
         s2 = max(float(a @ a) / len(r), 1e-300)
         alpha = inverse.T @ a
         ranked = np.argsort(ya, kind="stable")[:4]
-        turns = np.arange(m_local)
-        centres = Xa[ranked[turns % len(ranked)]]
-        spread = np.asarray(_SPREAD)[turns % len(_SPREAD)][:, None]
+        turn, spread = _pattern(m_local, len(ranked))
+        centres = Xa[ranked[turn]]
         local = np.minimum(np.maximum(centres + rng.normal(0.0, 1.0, size=(m_local, d)) * spread, 0.0), 1.0)
         C = np.concatenate([rng.random((m - m_local, d)), local] + ([np.asarray(first, dtype=float)[None, :]] if first is not None else []))
         Xs, Cs = Xa / self.scales, C / self.scales
@@ -143,28 +143,29 @@ class Model:
         """The length scales with the best profile likelihood among a few candidates, and the Cholesky
         factor of their correlation matrix (None when no candidate's factored)."""
         best: tuple[float, Any, Any] = (-math.inf, None, None)
+        nugget = _NUGGET * np.eye(len(r))  # added whole: + 0.0 off the diagonal changes nothing, one call instead of a strided one
         if self.scales is None or len(self.scales) != d:
             for s in _FIRST:
-                best = self._better(np, lapack, best, np.full(d, s), sq, r)
+                best = self._better(np, lapack, best, np.full(d, s), sq, r, nugget)
             factors = (0.5, 2.0)
         else:
-            best = self._better(np, lapack, best, self.scales.copy(), sq, r)
+            best = self._better(np, lapack, best, self.scales.copy(), sq, r, nugget)
             factors = (0.6, 1.6)
         for i in range(d if d > 1 else 0):
             base = best[1]
             for f in factors:
                 trial = base.copy()
                 trial[i] = min(_LONGEST, trial[i] * f)
-                best = self._better(np, lapack, best, trial, sq, r)
+                best = self._better(np, lapack, best, trial, sq, r, nugget)
         return best[1], best[2]
 
     @staticmethod
-    def _better(np: Any, lapack: Any, best: tuple[float, Any, Any], scales: Any, sq: Any, r: Any) -> tuple[float, Any, Any]:
+    def _better(np: Any, lapack: Any, best: tuple[float, Any, Any], scales: Any, sq: Any, r: Any, nugget: Any) -> tuple[float, Any, Any]:
         """*best* or *scales* with its factor, whichever has the higher profile likelihood (the first
         candidate is taken even when its matrix does not factor, as the fallback's scales)."""
         n = len(r)
         R = np.exp(sq @ (-0.5 / (scales * scales))).reshape(n, n)
-        R.flat[:: n + 1] += _NUGGET
+        R += nugget
         L, info = lapack.dpotrf(R, lower=1, clean=1)  # LAPACK's directly: numpy's and SciPy's wrappers cost more than the work
         if info != 0:
             return best if best[1] is not None else (-math.inf, scales, None)
@@ -183,6 +184,16 @@ class Model:
             if info == 0:
                 return L
         return np.eye(n)  # not reached: R + I is positive definite
+
+
+@functools.lru_cache(maxsize=8)
+def _pattern(m_local: int, best: int) -> tuple[Any, Any]:
+    """Which of the *best* runs each local candidate is drawn around, and at which spread (fixed arrays, never
+    written: made once, not per batch)."""
+    import numpy as np
+
+    turns = np.arange(m_local)
+    return turns % best, np.asarray(_SPREAD)[turns % len(_SPREAD)][:, None]
 
 
 def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng: Any, check: bool = False) -> Any:

@@ -364,7 +364,8 @@ class Search:
         found = {side: [base.unit[side[0]], side[1], base, r] for side, r in zip(sides, runs) if not r.failed}
         k = self.settings.batch
         while True:
-            active = [s for s, (f, p, _, _) in found.items() if not self._resolved(point(s[0], f), point(s[0], p))]
+            dims = self.space.dimensions  # only the side's parameter differs: _resolved's test on it alone
+            active = [s for s, (f, p, _, _) in found.items() if not abs(f - p) <= dims[s[0]].unit_resolution(f) + 1e-12]
             if not active:
                 break
             m = max(1, k // len(active))

@@ -114,19 +114,37 @@ class Model:
         ranked = np.argsort(ya, kind="stable")[:4]
         turn, spread = _pattern(m_local, len(ranked))
         centres = Xa[ranked[turn]]
-        local = np.minimum(np.maximum(centres + rng.normal(0.0, 1.0, size=(m_local, d)) * spread, 0.0), 1.0)
-        C = np.concatenate([rng.random((m - m_local, d)), local] + ([np.asarray(first, dtype=float)[None, :]] if first is not None else []))
+        # written in place into one array (the same values as the sums and products spelt out: a small
+        # array's every temporary costs more than its arithmetic)
+        C = np.empty((m + (first is not None), d))
+        local = C[m - m_local : m]
+        rng.standard_normal(out=local)  # the draws of normal(0, 1): the same numbers
+        local *= spread
+        local += centres  # centre + draw * spread
+        np.maximum(local, 0.0, out=local)
+        np.minimum(local, 1.0, out=local)
+        rng.random(out=C[: m - m_local])
+        if first is not None:
+            C[m] = first
         Xs, Cs = Xa / self.scales, C / self.scales
         cc = (Cs * Cs).sum(axis=1)
-        k = np.exp(np.minimum(Xs @ Cs.T - 0.5 * (Xs * Xs).sum(axis=1)[:, None] - 0.5 * cc[None, :], 0.0))  # n x m
+        k = Xs @ Cs.T  # n x m: exp(x.c - |x|^2/2 - |c|^2/2), at most 1
+        k -= 0.5 * (Xs * Xs).sum(axis=1)[:, None]
+        k -= 0.5 * cc
+        np.minimum(k, 0.0, out=k)
+        np.exp(k, out=k)
         V = inverse @ k
-        mean = mu + k.T @ alpha
-        var = np.maximum(1.0 - (V * V).sum(axis=0), 1e-12)  # in units of s2
+        mean = k.T @ alpha
+        mean += mu
+        var = (V * V).sum(axis=0)
+        np.subtract(1.0, var, out=var)
+        np.maximum(var, 1e-12, out=var)  # in units of s2
         sd = math.sqrt(s2)
         chosen: list[int] = []
         for _ in range(min(n, len(C))):
             score = ndtr(-mean / (sd * np.sqrt(var)))
-            score[chosen] = -1.0
+            if chosen:
+                score[chosen] = -1.0
             j = len(C) - 1 if first is not None and not chosen else int(np.argmax(score))
             chosen.append(j)
             if len(chosen) == n:  # the batch is complete: nothing more to believe

@@ -309,21 +309,10 @@ def _island_search(name: str, **settings: Any) -> Any:
 
 
 @pytest.mark.filterwarnings("ignore:The balance properties")
-def test_the_sobol_points_are_scipys_scrambled_sequence_bit_for_bit() -> None:
-    """The start's Sobol points (drawn without building SciPy's engine per search): the points of
-    ``qmc.Sobol(d, scramble=True, seed=seed)`` in its order, bit for bit, past the 256 worked out
-    directly (where SciPy's engine takes over, fast-forwarded); and a real search with the ``sobol``
-    method runs exactly SciPy's points, snapped to the values that ran."""
+def test_a_sobol_search_runs_scipys_scrambled_sobol_points() -> None:
+    """The ``sobol`` method runs the points of SciPy's ``qmc.Sobol(d, scramble=True, seed=seed)`` in its
+    order, each snapped to the values that ran."""
     from scipy.stats import qmc
-
-    from btgen_pytrees.falsify.sampler import Sobol
-
-    for d in (1, 2, 3, 4, 6):
-        for seed in (0, 1, 7, 123, 10**6, 2**40):
-            ours, scipy = Sobol(d, seed), qmc.Sobol(d=d, scramble=True, seed=seed)
-            for i in range(300 if seed in (0, 7) else 40):
-                a, b = ours.next(), scipy.random(1)[0]
-                assert a.dtype == b.dtype and a.tolist() == b.tolist(), (d, seed, i)
 
     search = _island_search("island_4d", method="sobol", seed=5, budget=24, batch=8).run()
     expected = qmc.Sobol(d=4, scramble=True, seed=5).random(24)

@@ -42,7 +42,7 @@ from typing import Any, Callable, Iterator, Sequence
 from .space import Space
 from .surrogate import Model, quadratic_minimum
 
-__all__ = ["Sampler", "Sobol", "METHODS", "SearchUnavailable", "HINT", "available", "resolve_method"]
+__all__ = ["Sampler", "METHODS", "SearchUnavailable", "HINT", "available", "resolve_method"]
 
 METHODS = ("auto", "gp", "cmaes", "tpe", "sobol", "random")
 HINT = "falsify needs the 'search' extra (optuna, cmaes, scipy): pip install -e '.[search]'"
@@ -97,75 +97,6 @@ def _quiet(optuna: Any) -> Iterator[None]:
             optuna.logging.set_verbosity(level)
 
 
-_BITS = 30
-"""SciPy's ``qmc.Sobol`` default: 30-bit integers."""
-_DIRECT = 8
-""":class:`Sobol` works out the first 2 ** _DIRECT points itself; SciPy's engine takes over after them."""
-_DIRECTIONS: dict[int, Any] = {}
-"""The Sobol sequence's first direction numbers per dimension count (they do not depend on the seed)."""
-
-
-class Sobol:
-    """The points of SciPy's ``qmc.Sobol(d, scramble=True, seed=seed)``, in its order, bit for bit, without
-    its cost per engine (about 0.5 ms: its scrambling works on all 30 direction numbers of every dimension in
-    Python loops, and it deep-copies its generator), most of a short search's per-search cost.
-
-    SciPy's scrambling is a random linear matrix scramble and a digital shift drawn from
-    ``numpy.random.default_rng(seed)``: the shift's bits first (*d* x 30), then the lower-triangular matrices'
-    (*d* x 30 x 30, unit diagonal). Point *i* is the shift XOR the scrambled direction numbers of the
-    sequence's Gray code order, over 2^30. This draws the same bits and scrambles only the first
-    :data:`_DIRECT` direction numbers (those of the first 256 points; the unscrambled ones are read from
-    SciPy's unscrambled sequence once per *d*); past them it hands over to SciPy's engine, fast-forwarded.
-    A test compares the two for many seeds and dimension counts."""
-
-    def __init__(self, d: int, seed: int):
-        import numpy as np
-
-        self._np, self.d, self.seed, self.drawn = np, d, seed, 0
-        rng = np.random.default_rng(seed)
-        self._quasi = rng.integers(2, size=(d, _BITS), dtype=np.uint32) @ (2 ** np.arange(_BITS, dtype=np.uint32))
-        self._ltm = rng.integers(2, size=(d, _BITS, _BITS), dtype=np.uint32)
-        self._sv: dict[int, Any] = {}
-        self._engine: Any = None
-
-    def next(self) -> Any:
-        """The sequence's next point (d floats in [0, 1))."""
-        i = self.drawn
-        self.drawn += 1
-        if i >= 2**_DIRECT or self._engine is not None:
-            if self._engine is None:
-                from scipy.stats import qmc
-
-                self._engine = qmc.Sobol(d=self.d, scramble=True, seed=self.seed)
-                self._engine.fast_forward(i)
-            return self._engine.random(1)[0]
-        if i > 0:  # Gray code order: the direction number of the previous index's lowest zero bit
-            j = ((i - 1) ^ i).bit_length() - 1
-            column = self._sv.get(j)
-            if column is None:
-                column = self._sv[j] = self._scrambled(j)
-            self._quasi = self._quasi ^ column
-        return self._quasi * (1.0 / 2**_BITS)
-
-    def _scrambled(self, j: int) -> Any:
-        """The scrambled direction numbers *j* of every dimension: each one's bits (most significant first)
-        times its dimension's lower-triangular matrix with unit diagonal, over GF(2)."""
-        np = self._np
-        v = _DIRECTIONS.get(self.d)
-        if v is None:
-            from scipy.stats import qmc
-
-            q = np.rint(qmc.Sobol(d=self.d, scramble=False).random(2**_DIRECT) * 2**_BITS).astype(np.int64)
-            v = _DIRECTIONS[self.d] = np.stack([q[2**k] ^ q[2**k - 1] for k in range(_DIRECT)], axis=1)  # d x _DIRECT
-        msb = np.arange(_BITS - 1, -1, -1)  # bit k of a row is the number's bit 29 - k
-        bits = ((v[:, j, None] >> msb) & 1).astype(float)  # d x 30
-        if self._ltm.dtype != float:  # sums of at most 30 ones: exact in floats (a BLAS product)
-            self._ltm = np.tril(self._ltm, -1).astype(float)
-        lower = self._ltm
-        parity = (lower @ bits[:, :, None])[:, :, 0].astype(np.int64) + bits.astype(np.int64)  # the unit diagonal
-        return (((parity & 1) << msb).sum(axis=1)).astype(np.uint32)
-
-
 class Sampler:
     """Proposes unit points in batches; learns from their objectives (lower is closer to failing).
 
@@ -202,8 +133,10 @@ class Sampler:
         if self.method == "random":
             with _quiet(optuna):
                 self._study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=seed))
-        else:  # the Sobol sequence Optuna's QMCSampler draws, SciPy's scrambled points (a fraction of its cost per point)
-            self._sobol = Sobol(len(space.dimensions), seed)
+        else:  # the Sobol sequence Optuna's QMCSampler draws, from SciPy directly (a fraction of its cost per point)
+            from scipy.stats import qmc
+
+            self._sobol = qmc.Sobol(d=len(space.dimensions), scramble=True, seed=seed)
         self._stage = "start" if self.start else self.method
         self._extremes = self._corners() if self.method == "gp" and self.start >= 4 else []
         self._rng = numpy.random.default_rng(seed)
@@ -331,7 +264,7 @@ class Sampler:
 
     def _sobol_point(self) -> list[float]:
         """The next point of the scrambled Sobol sequence (a list parameter: its choice at that fraction)."""
-        u = self._sobol.next()
+        u = self._sobol.random(1)[0]
         return [float(v) if d.continuous else float(min(len(d.choices) - 1, int(v * len(d.choices))))
                 for d, v in zip(self.space.dimensions, u)]  # fmt: skip
 

@@ -19,11 +19,13 @@ tree's number, or one that cannot take attributes is found through the
 >>> a, b = py_trees.behaviours.Success("a"), py_trees.behaviours.Success("b")
 >>> root = py_trees.composites.Sequence("root", memory=True, children=[a, b])
 >>> index = TreeIndex(root)
->>> [node.name for node in index.nodes], index.number(b), index.ends
-(['root', 'a', 'b'], 2, [3, 2, 3])
+>>> [node.name for node in index.nodes], index.number(b), index.ends, index.tagged
+(['root', 'a', 'b'], 2, [3, 2, 3], [])
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import py_trees
 
@@ -40,12 +42,16 @@ class TreeIndex:
         composites: the numbers of the nodes that have children, in pre-order
         tagged: the numbers of the nodes tagged with an execute entry or an
             oracle criterion (``btgen_entry``, ``btgen_criterion``), in pre-order
+        entries, criteria: node number -> the ``btgen_entry`` / ``btgen_criterion`` a tagged
+            node carries (read once here, for every visitor of the run)
     """
 
     def __init__(self, root: py_trees.behaviour.Behaviour):
         nodes: list[py_trees.behaviour.Behaviour] = []
         composites: list[int] = []
         tagged: list[int] = []
+        entries: dict[int, Any] = {}
+        criteria: dict[int, Any] = {}
         numbered = True  # every node took its number so far
         stack = [root]
         while stack:  # pre-order, without recursion (a chain of 100k entries is 100k levels deep)
@@ -56,8 +62,13 @@ class TreeIndex:
                 composites.append(i)
                 stack.extend(reversed(children))
             # getattr, not node.__dict__: reading __dict__ makes every node build a dict of its own
-            if getattr(node, "btgen_entry", None) is not None or getattr(node, "btgen_criterion", None) is not None:
+            entry, criterion = getattr(node, "btgen_entry", None), getattr(node, "btgen_criterion", None)
+            if entry is not None or criterion is not None:
                 tagged.append(i)
+                if entry is not None:
+                    entries[i] = entry
+                if criterion is not None:
+                    criteria[i] = criterion
             try:
                 node.btgen_index = i  # type: ignore[attr-defined]
             except AttributeError:  # a node that takes no attributes: found through the id() table
@@ -73,6 +84,8 @@ class TreeIndex:
         self.ends = ends
         self.composites = composites
         self.tagged = tagged
+        self.entries = entries
+        self.criteria = criteria
         self._ids: dict[int, int] | None = None if numbered else self._table()
 
     def _table(self) -> dict[int, int]:

@@ -164,8 +164,8 @@ class _NodeTable(Sequence):  # type: ignore[type-arg]
         self._classes = [type(node) for node in behaviours]
         # node number -> its entry, its criterion: the tagged nodes only (and no tuple per node, which
         # the garbage collector would have to look at)
-        self._entries = {i: getattr(behaviours[i], "btgen_entry", None) for i in index.tagged}
-        self._criteria = {i: getattr(behaviours[i], "btgen_criterion", None) for i in index.tagged}
+        self._entries: dict[int, Any] = index.entries  # read, never changed (dropped by rebinding once used)
+        self._criteria: dict[int, Any] = index.criteria
         self._ends = index.ends
         self._rows: list[TraceNode] | None = None
 
@@ -385,6 +385,36 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         if code != last:
             self._note(i, code)
 
+    def seen_all(self, seen: list[int]) -> None:
+        """:meth:`seen` for each of *seen*'s nodes in turn, each given as ``4 * number + code``.
+
+        The :class:`Collector` hands a tick's visited nodes over in one call: the same steps as
+        :meth:`seen` and :meth:`_note`, in one loop over locals, cost a fraction of two method calls
+        per node (a 10k-entry fan-in visits 20,000 nodes a tick)."""
+        last_codes, kinds, walks, halts = self._last, self._kinds, self._walks, self._halts
+        tick, left = self._tick, self._left
+        ticks, nodes, statuses = self._append
+        for packed in seen:
+            i, code = packed >> 2, packed & 3
+            last = last_codes[i]
+            kind = kinds[i]
+            if kind:
+                if last >= 2:  # a finished composite runs again: its children were reset
+                    walks.append(i)
+                if code != 1 or kind == _REACTIVE:  # it finished (halting its running children) or may halt any time
+                    halts.append(i)
+            if code != last:
+                last_codes[i] = code  # _note, inline
+                if left:
+                    left -= 1
+                    ticks(tick)
+                    nodes(i)
+                    statuses(code)
+                else:
+                    self._left = 0
+                    self._room()  # marks the trace truncated from this tick
+        self._left = left
+
     def finalise(self) -> None:
         """A tick ended: catch the nodes halted without a tick, then sample the signals.
 
@@ -411,7 +441,7 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         if halts:
             reach = -1
             for i in sorted(halts):
-                lo, hi = max(i + 1, reach), ends[i]
+                lo, hi = i + 1 if i >= reach else reach, ends[i]  # max(i + 1, reach), without a call per halt
                 j = last.find(1, lo, hi) if lo < hi else -1
                 while j >= 0:
                     node = behaviours[j]
@@ -421,7 +451,8 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
                         if code == 0 and ends[j] > j + 1:
                             walks.append(j)
                     j = last.find(1, j + 1, hi)
-                reach = max(reach, hi)
+                if hi > reach:
+                    reach = hi
         if outside:
             code = _code(behaviours[0].status)
             self._note(0, code)

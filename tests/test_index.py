@@ -44,6 +44,12 @@ def test_numbers_are_pre_order_with_subtree_ends(fig1_path: str) -> None:
         assert all(d > depth for d in inside)  # its subtree is below it
         assert index.ends[i] == len(walked) or walked[index.ends[i]][0] <= depth  # and ends where it ends
     assert [i for i, node in enumerate(index.nodes) if node.children] == index.composites
+    # what the tagged nodes carry, read once for every visitor: each node's own entry and criterion
+    assert index.entries == {i: node.btgen_entry for i, node in enumerate(index.nodes)
+                             if getattr(node, "btgen_entry", None) is not None}  # fmt: skip
+    assert index.criteria == {i: node.btgen_criterion for i, node in enumerate(index.nodes)
+                              if getattr(node, "btgen_criterion", None) is not None}  # fmt: skip
+    assert index.entries and index.criteria and sorted({*index.entries, *index.criteria}) == index.tagged
     assert all(getattr(index.nodes[i], "btgen_entry", None) or getattr(index.nodes[i], "btgen_criterion", None)
                for i in index.tagged)  # fmt: skip
 
@@ -179,7 +185,9 @@ def test_visit_is_run_node_by_node(data: dict[str, Any]) -> None:
     loaded = btgen_pytrees.load(data)
     clock = VirtualClock()
     root = btgen_pytrees.generate(loaded, clock=clock)
-    one, other = Collector(root, record=True), Collector(root, record=True)
+    lines: tuple[list[str], list[str]] = ([], [])  # each collector's --trace lines (entries' starts and ends)
+    one = Collector(root, record=True, trace=lines[0].append)
+    other = Collector(root, record=True, trace=lines[1].append)
     foreign, misnumbered = py_trees.behaviours.Success("foreign"), py_trees.behaviours.Failure("misnumbered")
     TreeIndex(py_trees.composites.Sequence("elsewhere", memory=True, children=[misnumbered]))
     reports = []
@@ -202,3 +210,37 @@ def test_visit_is_run_node_by_node(data: dict[str, Any]) -> None:
     for by_run, by_visit in reports:
         assert by_run == by_visit
     assert reports[0][1][0] == reports[1][1][0]  # the second run started anew
+    assert lines[0] == lines[1]
+
+
+def test_a_visit_that_raises_leaves_the_recorder_what_was_yielded(fig1_path: str) -> None:
+    """A tick whose leaf raises part way: Collector.visit hands the recorder every node yielded before
+    it (the runner then finalises the tick and reports the error), as Collector.run node by node does."""
+    loaded = btgen_pytrees.load(fig1_path)
+    clock = VirtualClock()
+    root = btgen_pytrees.generate(loaded, clock=clock)
+    one, other = Collector(root, record=True), Collector(root, record=True)
+    root.setup_with_descendants()
+    for k in range(8):
+        clock.set(round(k * loaded.tick, 9))
+        yielded = list(root.tick())
+
+        def raising() -> Any:
+            yield from yielded[:3]
+            raise RuntimeError("a leaf raised")
+
+        for collector in (one, other):
+            collector.initialise()
+        for node in yielded[:3]:
+            one.run(node)
+        try:
+            other.visit(raising())
+        except RuntimeError:
+            pass
+        for collector in (one, other):
+            collector.finalise()
+    one.end("error", "a leaf raised")
+    other.end("error", "a leaf raised")
+    first, second = one.report(), other.report()
+    assert first.trace is not None and first.trace.changes() > 0
+    assert second.to_json() == first.to_json() and second.trace.to_data() == first.trace.to_data()

@@ -322,6 +322,21 @@ def test_a_selector_halting_a_lower_priority_child_while_it_runs_on_is_recorded(
     assert [(k, s) for k, i, s in trace.transitions() if i == leaf] == [(0, "running"), (2, "invalid")]
 
 
+def test_a_sequence_without_memory_is_reactive_beside_one_with_memory() -> None:
+    """The recorder's kind of a Sequence is its own memory's, not its class's: a Sequence without memory,
+    below one with memory, stays RUNNING while it halts a later child an earlier one overtook."""
+    Status = py_trees.common.Status
+    first = py_trees.behaviours.StatusQueue("first", queue=[Status.SUCCESS], eventually=Status.RUNNING)
+    reactive = py_trees.composites.Sequence("reactive", memory=False,
+                                            children=[first, py_trees.behaviours.Running("later")])  # fmt: skip
+    root = py_trees.composites.Sequence("root", memory=True, children=[reactive])
+    trace, statuses = _ticked_stock_tree(root, 3)
+    for k, expected in enumerate(statuses):
+        assert trace.statuses_at(k) == expected, k
+    later = [n.name for n in trace.nodes].index("later")
+    assert [(k, s) for k, i, s in trace.transitions() if i == later] == [(0, "running"), (1, "invalid")]
+
+
 def test_a_tree_stopped_by_its_host_between_ticks_is_recorded(fig1_path: str) -> None:
     """A host may stop() the generated root between two ticks and tick it again: the recorder
     notices on the next tick (nodes that were running and are not running again say so)."""

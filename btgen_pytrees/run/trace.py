@@ -331,13 +331,14 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         super().__init__(full=False)
         behaviours, ends = index.nodes, index.ends
         kinds = bytearray(len(behaviours))
-        known: dict[tuple[type, Any], int] = {}
+        known: dict[type, int] = {}  # by class, for the classes whose kind is not a Sequence's (by its memory)
+        sequence = py_trees.composites.Sequence.tick
         for i in index.composites:
             node = behaviours[i]
-            key = (type(node), getattr(node, "memory", None))
-            kind = known.get(key)
+            cls = type(node)
+            kind = known.get(cls)
             if kind is None:
-                kind = known[key] = _kind(node)
+                kind = _kind(node) if cls.tick is sequence else known.setdefault(cls, _kind(node))
             kinds[i] = kind
         self.trace = RunTrace(_NodeTable(index), limit=limit)
         self._index = index
@@ -504,7 +505,7 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         if self._prefix is None:
             return
         storage = Blackboard.storage
-        if any(key not in storage for key in self._keys):  # a key went away (a host reset the namespace)
+        if not self._keys.keys() <= storage.keys():  # a key went away (a host reset the namespace); a set test in C
             self._storage_size = -1
         if len(storage) != self._storage_size:
             self._discover(storage)

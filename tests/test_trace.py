@@ -172,31 +172,6 @@ def test_the_cap_bounds_memory_and_says_where_it_cut() -> None:
     assert list(trace.statuses) == list(full.statuses[: len(trace.statuses)])
 
 
-def test_seen_all_is_seen_node_by_node_up_to_the_cap() -> None:
-    """TraceRecorder.seen_all (the Collector's: a tick's nodes in one call, as 4 * number + code) against
-    seen called per node, on a real tree's ticks, with a cap that cuts the record during a tick."""
-    data = case(*[entry(f"E{i}", action="ramp", signal=f"s{i}", to=100, duration=5) for i in range(20)], timeout=6)
-    loaded = btgen_pytrees.load(data)
-    clock = VirtualClock()
-    root = btgen_pytrees.generate(loaded, clock=clock)
-    one, other = TraceRecorder(root, limit=300), TraceRecorder(root, limit=300)
-    root.setup_with_descendants()
-    for k in range(40):
-        clock.set(k * 0.1)
-        for recorder in (one, other):
-            recorder.initialise()
-        packed = []
-        for node in root.tick():
-            one.run(node)
-            packed.append(node.btgen_index << 2 | STATUSES.index(CODES[node.status]))
-        other.seen_all(packed[:7])  # in two calls: the second carries on where the first stopped
-        other.seen_all(packed[7:])
-        for recorder in (one, other):
-            recorder.finalise()
-    assert other.trace.truncated is not None and other.trace.changes() == 300
-    assert other.trace.to_data() == one.trace.to_data()
-
-
 def test_statuses_are_btcpp_codes() -> None:
     assert STATUSES == ("invalid", "running", "success", "failure")  # IDLE, RUNNING, SUCCESS, FAILURE
 

@@ -176,50 +176,43 @@ class Collector(py_trees.visitors.VisitorBase):
         collector added to a tick (on a 20,000-node tick, a third of the run)."""
         nodes, watch, number, trace = self._nodes, self._watch, self.index.number, self.trace
         returned, recorder, slots = self._returned, self.recorder, self._slots
-        noted: list[int] = []  # for the recorder: 4 * number + code of each node, in the order seen
-        note = noted.append
-        try:
-            for behaviour in behaviours:
-                try:  # the number the node carries, if it is this tree's (see TreeIndex)
-                    i = behaviour.btgen_index  # type: ignore[attr-defined]
-                    if nodes[i] is not behaviour:
-                        raise LookupError
-                except (AttributeError, LookupError, TypeError):
-                    i = number(behaviour)
-                    if i is None:  # not in the generated tree (a host's own node)
-                        continue
-                status = behaviour.status
-                code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
-                returned[i] = code + 1
-                seen = watch[i]
-                if seen == _ENTRY:  # _saw's entry branch, inline: half the nodes of a fan-out's tick are entries'
-                    self._fresh = False
-                    result = slots[i]
-                    if result.end is None:
-                        now = self._now
-                        if now is None:
-                            now = self._now = self.env.now()
-                        if result.start is None:
-                            result.start, result.status = now, "running"
-                            if trace:
-                                trace(trace_line(now, "start", result.id))
-                        if code >= 2:
-                            result.end = now
-                            result.status = "success" if code == 2 else "failure"
-                            result.message = behaviour.feedback_message if code == 3 else ""
-                            if trace:
-                                trace(trace_line(now, result.status, result.id, result.message))
-                elif seen:
-                    if seen == _START and recorder is not None and noted:  # before a new run's recorder replaces it
-                        recorder.seen_all(noted)
-                        noted.clear()
-                    self._saw(i, seen, code, behaviour)
-                    returned, recorder, slots = self._returned, self.recorder, self._slots  # the start leaf again: a new run
-                if recorder is not None:
-                    note(i << 2 | code)
-        finally:  # also when a leaf raised: the recorder has seen every node the tick yielded
-            if recorder is not None and noted:
-                recorder.seen_all(noted)
+        record = recorder.seen if recorder is not None else None  # the recorder's look at the same number and code
+        for behaviour in behaviours:
+            try:  # the number the node carries, if it is this tree's (see TreeIndex)
+                i = behaviour.btgen_index  # type: ignore[attr-defined]
+                if nodes[i] is not behaviour:
+                    raise LookupError
+            except (AttributeError, LookupError, TypeError):
+                i = number(behaviour)
+                if i is None:  # not in the generated tree (a host's own node)
+                    continue
+            status = behaviour.status
+            code = 1 if status is _RUNNING else 2 if status is _SUCCESS else 3 if status is _FAILURE else 0
+            returned[i] = code + 1
+            seen = watch[i]
+            if seen == _ENTRY:  # _saw's entry branch, inline: half the nodes of a fan-out's tick are entries'
+                self._fresh = False
+                result = slots[i]
+                if result.end is None:
+                    now = self._now
+                    if now is None:
+                        now = self._now = self.env.now()
+                    if result.start is None:
+                        result.start, result.status = now, "running"
+                        if trace:
+                            trace(trace_line(now, "start", result.id))
+                    if code >= 2:
+                        result.end = now
+                        result.status = "success" if code == 2 else "failure"
+                        result.message = behaviour.feedback_message if code == 3 else ""
+                        if trace:
+                            trace(trace_line(now, result.status, result.id, result.message))
+            elif seen:
+                self._saw(i, seen, code, behaviour)
+                returned, recorder, slots = self._returned, self.recorder, self._slots  # the start leaf again: a new run
+                record = recorder.seen if recorder is not None else None
+            if record is not None:
+                record(i, code)
 
     def _saw(self, i: int, watch: int, code: int, behaviour: py_trees.behaviour.Behaviour) -> None:
         """Node *i* is the root, the start leaf or an entry's: what its tick means."""

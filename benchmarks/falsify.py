@@ -7,7 +7,7 @@ Three cases in ``benchmarks/falsify_cases/``, each failing on a small part of it
 * ``island_4d`` - built-in simulator, 4 parameters: the same with the ramps'
   durations (about 1 %);
 * ``cut_in_3d`` - SUMO, 3 parameters: the cut-in gap, the ego's and the
-  cutter's speeds; fails where the ACC lets the gap fall below 1 m.
+  cutter's speeds; fails where the ACC lets the gap fall below 0.5 m or they collide.
 
 **Ground truth** is a dense grid of real runs, computed once (``--truth``, or
 when the stored file is missing) and stored beside the case
@@ -19,7 +19,9 @@ equation (:func:`island_margin`); where the real-run grid is coarser than the
 declared resolution, *p* and the grid's first failure are counted on the grid
 *at* the declared resolution from the equation (40,401 and 1,632,240,801
 points), after checking that the equation gives every stored real run's
-verdict (:func:`declared_truth`).
+verdict (:func:`declared_truth`). The SUMO case has no equation: its grid is at
+the declared resolution where it fails (``FOCUS``; 75,276 runs, ``--truth-jobs``
+forks processes for them) and coarse outside, where it must fail nowhere.
 
 For each case and method, ``--seeds`` searches (default 20; seeds from ``--first-seed``, default 0) with ``--budget``
 runs (default 200), ``--batch`` (default 1: the runs run in this process, one

@@ -9,14 +9,13 @@ sweep row does - and its row gets ``wall``, the run's wall-clock seconds.
 
 from __future__ import annotations
 
-import contextlib
 import time
 from typing import Any, Mapping, Sequence
 
 from ..parallel import Outcome
 from ..errors import InvalidTestCase, is_interrupt
 from ..sweep.jobs import ChunkOutcome, RunOptions, job_variation
-from ..systems.sumo import reuse_simulations
+from ..systems.sumo import reuse_for
 
 __all__ = ["job_probe", "timed"]
 
@@ -39,7 +38,7 @@ def timed(label: str, options: RunOptions, source: str, document: Mapping[str, A
 def job_probe(label: str, options: RunOptions, source: str,
               items: Sequence[tuple[str, Mapping[str, Any], Any]]) -> ChunkOutcome:  # fmt: skip
     """Several runs in one task (like :func:`btgen_pytrees.sweep.jobs.job_chunk`), each guarded and timed;
-    SUMO is started once for them (:func:`~btgen_pytrees.systems.sumo.reuse_simulations`)."""
-    with reuse_simulations() if len(items) > 1 else contextlib.nullcontext():  # one run: nothing to keep it for
+    SUMO is started once for them (:func:`~btgen_pytrees.systems.sumo.reuse_for`)."""
+    with reuse_for(len(items)):
         parts = [timed(name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} runs", parts=parts)

@@ -16,7 +16,6 @@ guard) runs sweeps and batches alike.
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Mapping, Sequence
@@ -29,7 +28,7 @@ from ..parallel import Outcome, guard
 from ..parallel.shipping import local
 from ..run import run
 from ..contracts.system import SystemSpec
-from ..systems.sumo import reuse_simulations
+from ..systems.sumo import reuse_for
 
 __all__ = ["VariationOutcome", "ChunkOutcome", "RunOptions", "job_variation", "job_chunk", "chunk_size",
            "registry_for", "row_of", "margin_of"]  # fmt: skip
@@ -131,9 +130,9 @@ def job_chunk(label: str, options: RunOptions, source: str,
 
     *items*: ``(label, document, system)`` per variation. A run takes milliseconds, about
     what handing a task to a worker process costs; a chunk pays that once for all its runs,
-    and its SUMO runs start SUMO once and set it back between runs (:func:`~btgen_pytrees.systems.sumo.reuse_simulations`).
+    and its SUMO runs start SUMO once and set it back between runs (:func:`~btgen_pytrees.systems.sumo.reuse_for`).
     """
-    with reuse_simulations() if len(items) > 1 else contextlib.nullcontext():  # one run: nothing to keep it for
+    with reuse_for(len(items)):
         parts = [guard(job_variation, name, options, source, document, system) for name, document, system in items]
     return ChunkOutcome(label, max(p.code for p in parts), f"{len(parts)} variations", parts=parts)
 

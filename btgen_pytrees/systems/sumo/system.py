@@ -62,7 +62,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...contracts.environment import Environment
 
 __all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT", "tick_problem",
-           "LOOKAHEAD", "reuse_simulations", "kept_simulation"]
+           "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation"]
 
 INSTALL_HINT = "pip install -e '.[sumo]'"
 ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", "ttc", "present", "collided")
@@ -119,6 +119,12 @@ def reuse_simulations() -> Iterator[None]:
             kept = _take_kept() if _scopes == 0 else None
             if kept is not None:
                 kept.close()
+
+
+def reuse_for(runs: int) -> contextlib.AbstractContextManager[None]:
+    """:func:`reuse_simulations` for a job of *runs* runs: the block when there are two or more, nothing for
+    one (no next run to keep SUMO for). What the sweep's and the search's jobs open."""
+    return reuse_simulations() if runs > 1 else contextlib.nullcontext()
 
 
 def kept_simulation() -> tuple[Any, ...] | None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import json
 import logging
+import math
 import os
 import pathlib
 import subprocess
@@ -289,6 +290,28 @@ def test_the_gp_start_runs_the_boxs_opposite_corners_then_sobol_points(tmp_path:
     assert main(["falsify", write(tmp_path, corner, "corner.json"), "--budget", "40", "--jobs", "1", "--stop", "first",
                  "--json", str(tmp_path / "c.json")]) == 1  # fmt: skip
     assert json.loads((tmp_path / "c.json").read_text())["first_failure"] == 1
+
+
+@pytest.mark.parametrize("batch", [1, 2])
+def test_a_failure_met_during_the_start_is_refined_and_the_search_goes_on(tmp_path: pathlib.Path, batch: int) -> None:
+    """The default stop rule (all) when the start's first run, a corner, fails: that failure is shrunk and
+    bounded at once, then the rest of the start runs and the search goes on (it crashed with an
+    IndexError: the sampler was told the shrink's and the bound's runs as if it had asked for them), and
+    the criteria's scales come from the start's runs alone."""
+    corner = island(oracle={"criteria": [{"id": "F1", "type": "final", "expect": "x + y >= 0.5"}]})  # fails at (0, 0) only
+    report = tmp_path / "c.json"
+    assert main(["falsify", write(tmp_path, corner, "corner.json"), "--budget", "60", "--jobs", "1", "--batch", str(batch),
+                 "--json", str(report)]) == 1  # fmt: skip
+    data = json.loads(report.read_text())
+    phases = [r["phase"] for r in data["runs"]]
+    assert data["first_failure"] == 1 and len(phases) == 60, phases
+    refined = phases.index("start", batch)  # the start goes on after the corner's shrink and bound
+    assert phases[:batch] == ["start"] * batch and set(phases[batch:refined]) <= {"shrink", "bound"} and refined > batch + 4
+    assert phases[refined:refined + 4 - batch] == ["start"] * (4 - batch) and "search" in phases[refined:]
+    start = [r for r in data["runs"] if r["phase"] == "start"]
+    margins = [r["margins"]["F1"] for r in start]
+    mean = sum(margins) / len(margins)
+    assert data["scales"]["F1"] == pytest.approx(math.sqrt(sum((m - mean) ** 2 for m in margins) / len(margins)))
 
 
 def _island_search(name: str, **settings: Any) -> Any:

@@ -46,6 +46,7 @@ RADIUS = 0.1
 """Failures closer than this (a fraction of the unit box's diagonal) belong to one cluster."""
 
 FAILING = ("fail", "timeout", "error")
+_SAMPLED = ("start", "search")
 
 
 @dataclass(frozen=True)
@@ -213,11 +214,14 @@ class Search:
         return value
 
     def _fix_scales(self) -> None:
+        """Each criterion's scale and whether it is graded, from the start's runs (a failure met during the
+        start has been shrunk and bounded by now: those runs crowd around it and say nothing of the box)."""
         ids = [i for _, ids in self.groups.values() for i in ids]
         graded = []
+        start = [r for r in self.runs if r.phase == "start"]
         for i in ids:
-            seen = [m for r in self.runs if (m := (r.row.get("margins") or {}).get(i)) is not None and math.isfinite(m)]
-            passing = {round(m, 12) for r in self.runs if not r.failed
+            seen = [m for r in start if (m := (r.row.get("margins") or {}).get(i)) is not None and math.isfinite(m)]
+            passing = {round(m, 12) for r in start if not r.failed
                        and (m := (r.row.get("margins") or {}).get(i)) is not None and math.isfinite(m)}  # fmt: skip
             given = self.settings.scale.get(i)
             if len(seen) > 1:
@@ -238,7 +242,7 @@ class Search:
                               + ("these guide nothing but still fail runs" if graded else "the search stays space-filling"))  # fmt: skip
         if not graded:
             self.sampler.space_filling()
-        self.sampler.rescore([self._told(r) for r in self.runs])
+        self.sampler.rescore([self._told(r) for r in self._sampled()])
 
     def _told(self, run: Run) -> float | None:
         """What the sampler is told: the objective, pushed up near known failures (so it looks elsewhere)."""
@@ -258,7 +262,12 @@ class Search:
 
     def _restart(self) -> None:
         self.sampler.avoid = lambda x: self._nearest(x) < RADIUS
-        self.sampler.restart([self._told(r) for r in self.runs if r.phase in ("start", "search")])
+        self.sampler.restart([self._told(r) for r in self._sampled()])
+
+    def _sampled(self) -> list[Run]:
+        """The runs the sampler was asked for and told, in order: the start's and the search's (not the
+        shrink's and the bound's, which the search asks for itself)."""
+        return [r for r in self.runs if r.phase in _SAMPLED]
 
     # -- clusters, shrink, bound ----------------------------------------------------------------------
 

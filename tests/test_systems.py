@@ -67,7 +67,7 @@ class CounterType:
 
 
 class Boom(py_trees.behaviour.Behaviour):
-    """``counter.boom {error}``: raises on its first tick (a SystemFailure or a ValueError)."""
+    """``counter.boom {error}``: raises on its first tick (a SystemFailure, a KeyboardInterrupt or a ValueError)."""
 
     def __init__(self, entry: Any, env: Any):
         super().__init__(name=entry.name)
@@ -79,6 +79,8 @@ class Boom(py_trees.behaviour.Behaviour):
             raise SystemFailure("vehicle 'ego' is gone")
         if self.error == "interrupt":
             raise KeyboardInterrupt
+        if self.error == "bare":
+            raise ValueError  # no message
         raise ValueError("bad value")
 
 
@@ -114,6 +116,7 @@ def test_life_cycle_order_and_the_systems_time_is_the_runs_clock() -> None:
         (case(entry("H", duration=0.2), criteria=[crit("R", "record", "n < 1")]), {}, "fail", "R failed"),
         (case(entry("H", duration=5), timeout=0.3), {}, "timeout", "no verdict after 0.3 s"),
         (case(entry("B", action="counter.boom")), {}, "error", "B raised ValueError: bad value"),
+        (case(entry("B", action="counter.boom", error="bare")), {}, "error", "B raised ValueError"),
         (case(entry("B", action="counter.boom", error="system")), {}, "error", "B: vehicle 'ego' is gone"),
         (case(entry("H", duration=1)), {"fail_at": "start"}, "error", "cannot start"),
         (case(entry("H", duration=1)), {"fail_at": "publish"}, "error", "lost the connection"),

@@ -265,7 +265,10 @@ class Collector(py_trees.visitors.VisitorBase):
         self._now = None
         self.ticks += 1
         self.duration = now
-        message = str(exc) if isinstance(exc, SystemFailure) else f"{type(exc).__name__}: {exc}"
+        if isinstance(exc, SystemFailure):
+            message = str(exc)
+        else:  # an exception without a message (``raise KeyboardInterrupt``) is named alone, with no ": " after it
+            message = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
         if culprit is not None:
             culprit.start = now if culprit.start is None else culprit.start
             culprit.end, culprit.status, culprit.message = now, "error", message

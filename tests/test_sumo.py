@@ -620,6 +620,7 @@ def test_an_infinite_gap_is_written_to_the_json_report_as_text(tmp_path: pathlib
 
 
 @needs_sumo
+@pytest.mark.usefixtures("pythons_ctrl_c")  # its KeyboardInterrupt is the host's Ctrl-C: goes on
 def test_ctrl_c_in_a_sumo_run_closes_the_simulation_and_goes_on(tmp_path: pathlib.Path) -> None:
     import libsumo
     import py_trees
@@ -868,6 +869,7 @@ def _fresh(path: pathlib.Path) -> list[Any]:
 
 
 @needs_sumo
+@pytest.mark.usefixtures("pythons_ctrl_c")  # its KeyboardInterrupt is the host's Ctrl-C: goes on
 def test_runs_one_after_the_other_in_a_process_match_a_fresh_process_byte_for_byte(tmp_path: pathlib.Path) -> None:
     """Whatever one run leaves in the process - libsumo's state after its close, the scenario read once
     (read_scenario keeps it), a run that SUMO refused, a run interrupted half-way, a run that took a

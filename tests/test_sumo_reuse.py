@@ -125,6 +125,7 @@ def here(doc: dict[str, Any]) -> str:
 
 
 @needs_sumo
+@pytest.mark.usefixtures("pythons_ctrl_c")  # its KeyboardInterrupt is the host's Ctrl-C: goes on
 def test_every_run_on_a_kept_simulation_gives_the_report_of_a_fresh_process(tmp_path: pathlib.Path) -> None:
     """Twelve settings of the cut-in search, cases that draw random numbers everywhere (three seeds, a spawned
     vehicle), the example cases (a collision; a take-over), in a shuffled order, three times each, with runs
@@ -341,6 +342,7 @@ def test_a_scenario_file_edited_between_two_runs_is_loaded_anew(tmp_path: pathli
 
 
 @needs_sumo
+@pytest.mark.usefixtures("pythons_ctrl_c")  # its KeyboardInterrupt is the host's Ctrl-C: goes on
 def test_nothing_is_left_open_after_a_block(tmp_path: pathlib.Path) -> None:
     """No file descriptor (the state's memory files) outlives the block, whatever its runs did: kept, closed
     for another key, refused by SUMO, interrupted, not restorable."""

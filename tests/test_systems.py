@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
+import pathlib
+import subprocess
+import sys
 from typing import Any
 
 import py_trees
@@ -132,6 +136,7 @@ def test_close_on_every_ending(data: dict[str, Any], kw: dict[str, Any], verdict
     assert report.ticks == sum(1 for line in system.log if line.startswith("publish")) - (kw.get("fail_at") == "publish")
 
 
+@pytest.mark.usefixtures("pythons_ctrl_c")  # a plain KeyboardInterrupt is Ctrl-C only under Python's own handler
 def test_close_on_keyboard_interrupt_and_the_interrupt_goes_on() -> None:
     reg = registry()
     loaded = btgen_pytrees.load(case(entry("H", duration=0.1), entry("B", ["H"], action="counter.boom", error="interrupt"),
@@ -144,6 +149,7 @@ def test_close_on_keyboard_interrupt_and_the_interrupt_goes_on() -> None:
     assert root.btgen_env.system is None  # the environment is given back as it was
 
 
+@pytest.mark.usefixtures("pythons_ctrl_c")
 def test_close_when_the_system_itself_is_interrupted() -> None:
     reg = registry()
     loaded = btgen_pytrees.load(case(entry("H", duration=1)), registry=reg)
@@ -152,6 +158,38 @@ def test_close_when_the_system_itself_is_interrupted() -> None:
     with pytest.raises(KeyboardInterrupt):
         run_tree(root, loaded, system=system)
     assert system.log[-1] == "close" and system.log.count("close") == 1 and root.status == Status.INVALID
+
+
+@pytest.mark.usefixtures("sigint_ignored")
+@pytest.mark.parametrize("data, kw, message", [
+    (case(entry("H", duration=0.1), entry("B", ["H"], action="counter.boom", error="interrupt")), {}, "B raised KeyboardInterrupt"),
+    (case(entry("H", duration=1)), {"fail_at": "tick-interrupt"}, "the 'counter' system raised KeyboardInterrupt"),
+])  # fmt: skip
+def test_where_no_ctrl_c_can_come_a_plain_keyboard_interrupt_is_the_runs_error(data: dict[str, Any], kw: dict[str, Any],
+                                                                               message: str) -> None:  # fmt: skip
+    """SIGINT ignored (a host started under nohup or in a script's background): no Ctrl-C can reach the
+    process, so a plain KeyboardInterrupt comes from the leaf or system that raised it - that run's error."""
+    report, system = one_run(data, **kw)
+    assert (report.verdict, report.message) == ("error", message)
+    assert system.log[-1] == "close" and system.log.count("close") == 1
+
+
+def test_the_ctrl_c_tests_hold_when_pytest_starts_with_sigint_ignored() -> None:
+    """This file's tests pass however pytest was started, run here with SIGINT ignored.
+
+    A Python started with SIGINT ignored (``nohup``, or ``cmd &`` in a script: the shell ignores
+    SIGINT for it) keeps it ignored and installs no Ctrl-C handler, so there a plain KeyboardInterrupt
+    is the run's error (the test above); a test that expects one to go on through a run asks for
+    Python's own handler (the ``pythons_ctrl_c`` fixture)."""
+    ignoring = ("import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+                "os.execv(sys.executable, [sys.executable, '-m', 'pytest', *sys.argv[1:]])")  # SIG_IGN survives exec
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    env["PYTHONPATH"] = str(ROOT)  # this checkout, whatever the venv's install points at
+    done = subprocess.run([sys.executable, "-c", ignoring, "-q", str(pathlib.Path(__file__).resolve()),
+                           "-k", "not test_the_ctrl_c_tests_hold_when_pytest_starts_with_sigint_ignored"],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert done.returncode == 0, done.stdout[-4000:] + done.stderr[-2000:]
+    assert " passed" in done.stdout and "failed" not in done.stdout
 
 
 def test_a_system_type_that_cannot_create_gives_verdict_error() -> None:

@@ -10,7 +10,8 @@ from __future__ import annotations
 from typing import Any
 
 import py_trees
-from hypothesis import HealthCheck, given, settings
+from helpers import case, crit, entry
+from hypothesis import HealthCheck, example, given, settings
 from py_trees.common import Status
 from test_trace import scenarios, tick_like_the_runner, ticked_with_snapshots
 
@@ -85,8 +86,15 @@ def test_a_run_is_the_same_when_another_index_renumbered_its_nodes(fig1_path: st
     assert list(report.trace.transitions()) == list(expected.trace.transitions())
 
 
+TIMES_OUT = case(entry("E0", duration=0.3), entry("E1", ["E0"]), entry("E2", ["E1"]), entry("E3", ["E2"]),
+                 criteria=[crit("R1", "record", "a <= 0"), crit("F1", "final", "b != 0")], signals={"a": 0, "b": 0, "c": 0},
+                 tick=0.1, timeout=3)  # fmt: skip
+"""3.3 s of holds in a chain under a 3 s timeout: the tree is still running after its last tick."""
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(scenarios())
+@example(TIMES_OUT)  # scenarios() draws such runs too, in some runs of the suite only
 def test_the_collector_records_the_trace_the_recorder_records(data: dict[str, Any]) -> None:
     """The runner's path (the collector hands each node to the recorder) against the recorder alone."""
     alone, _, _ = ticked_with_snapshots(data)
@@ -95,6 +103,8 @@ def test_the_collector_records_the_trace_the_recorder_records(data: dict[str, An
     root = btgen_pytrees.generate(loaded, clock=clock)
     collector = Collector(root, record=True)
     tick_like_the_runner(loaded, root, clock, collector)
+    if root.status == Status.RUNNING:  # still running at the timeout: the runner ends the run there (a report has a trace
+        collector.end("timeout", f"no verdict after {loaded.timeout:g} s")  # once the run is over)
     fed = collector.report().trace
     assert fed.times == alone.times and list(fed.transitions()) == list(alone.transitions())
     assert {n: fed.series(n) for n in fed.signals} == {n: alone.series(n) for n in alone.signals}

@@ -18,12 +18,15 @@ from typing import Any
 
 import pytest
 
+from btgen_pytrees.errors import ExitCode
+from btgen_pytrees.falsify.jobs import job_probe
 from btgen_pytrees.leaves import default_registry
 from btgen_pytrees.load import validate
+from btgen_pytrees.parallel import Outcome, Workers, process
 from btgen_pytrees.run import run
 from btgen_pytrees.sweep import load_sweep
 from btgen_pytrees.sweep.jobs import RunOptions, job_chunk
-from btgen_pytrees.systems.sumo import kept_simulation, reuse_simulations
+from btgen_pytrees.systems.sumo import keep_simulations, kept_simulation, reuse_simulations
 from btgen_pytrees.systems.sumo.scenario import RESTORE_DEPART, read_scenario
 
 from helpers import crit, entry
@@ -368,3 +371,42 @@ def test_nothing_is_left_open_after_a_block(tmp_path: pathlib.Path) -> None:
                 run(validate(docs[1], SOURCE, default_registry()), progress=interrupt)
             here(docs[1])
         assert sorted(os.listdir("/proc/self/fd")) == before
+
+
+def kept_here(path: str) -> Outcome:
+    """A job: whether this worker process has a simulation kept open, and its process id."""
+    return Outcome(path, ExitCode.OK, f"{os.getpid()} {kept_simulation() is not None}")
+
+
+@needs_sumo
+def test_a_searchs_workers_keep_their_simulation_from_one_batch_to_the_next(tmp_path: pathlib.Path) -> None:
+    """``falsify --jobs 2``: the search's worker processes are kept for all its batches and each keeps its
+    SUMO open between its tasks (it was started for every run: each batch forked new workers, which imported
+    libsumo again); the search is the one a single process runs with the same batch, byte for byte."""
+    docs = settings(6, seed=5)
+    expected = fresh(docs, tmp_path)
+    with Workers(2, keep_simulations) as pool:
+        rows, seen = [], []
+        for k in range(3):  # three batches of two runs, as a search at batch 2 asks them
+            batch = [(f"v{2 * k + i}", docs[2 * k + i], None) for i in range(2)]
+            outcomes = process(job_probe, [(RunOptions(), SOURCE, [item]) for item in batch], [b[0] for b in batch], workers=2, pool=pool)
+            rows += [o.parts[0].row for o in outcomes]  # type: ignore[attr-defined]
+            seen.append(process(kept_here, [(), ()], ["a", "b"], workers=2, pool=pool))
+        pids = pool.pids
+    reports = [json.JSONDecoder().raw_decode(r)[0] for r in expected]
+    assert [(r["verdict"], r["margin"], r["ticks"]) for r in rows] == [(r["verdict"], r["margin"], r["ticks"]) for r in reports]
+    assert {o.summary.split()[0] for batch in seen for o in batch} == {str(p) for p in pids}  # the same two processes
+    assert [o.summary.split()[1] for o in seen[-1]] == ["True", "True"]  # each keeps its simulation
+    case = ROOT / "benchmarks" / "falsify_cases" / "cut_in_3d.json"
+    outs = []
+    for jobs in ("2", "1"):
+        target = tmp_path / f"{jobs}.json"
+        done = subprocess.run([sys.executable, "-m", "btgen_pytrees", "falsify", str(case), "--budget", "30", "--seed", "2",
+                               "--batch", "2", "--jobs", jobs, "--json", str(target)], capture_output=True, text=True,
+                              cwd=tmp_path, timeout=600, check=False)  # fmt: skip
+        assert done.returncode == 1, done.stderr[-2000:]
+        data = json.loads(target.read_text())
+        for run in data["runs"]:
+            run.pop("wall")
+        outs.append(json.dumps(data, indent=2))
+    assert outs[0] == outs[1]

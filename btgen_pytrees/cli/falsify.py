@@ -26,12 +26,12 @@ from ..falsify.search import Search
 from ..falsify.space import Space
 from ..load import validate
 from ..writing import check_target, commit, emit
-from ..parallel import Interrupted, progress_stream
+from ..parallel import Interrupted, Workers, progress_stream
 from ..run.plot import plot_format
 from ..load.sweep import load_sweep
 from ..load.template import Sweep
 from ..load.variations import format_value
-from ..systems.sumo import reuse_simulations
+from ..systems.sumo import keep_simulations, reuse_simulations
 from .options import Parents, registry
 from .sweep import add_executor_options, make_executor, run_options
 
@@ -106,7 +106,10 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     if executor is not None:  # the batch follows the cluster's workers, as it follows --jobs locally
         settings = settings_of(sweep.search, vars(args), criteria_ids, sweep.source, executor.workers())
     stream = progress_stream()
-    evaluate = evaluator(sweep, run_options(args), args.jobs, executor)
+    # batches run in local workers (several points, or several workers): the workers are kept for the whole
+    # search, each keeping its SUMO open from one batch to the next; one point at a time runs in this process
+    pool = Workers(args.jobs, keep_simulations) if executor is None and (args.jobs > 1 or settings.batch > 1) else None
+    evaluate = evaluator(sweep, run_options(args), args.jobs, executor, pool)
     search = Search(space, sweep.defaults, settings, evaluate, groups, progress_line(stream) if stream else None)
     signum = None
     try:
@@ -116,6 +119,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         except Interrupted as stop:
             search.interrupted, signum = True, stop.signum
     finally:
+        if pool is not None:
+            pool.close()
         if executor is not None:
             executor.close()
         if stream is not None:

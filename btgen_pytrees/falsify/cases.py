@@ -20,6 +20,7 @@ from ..render import GraphvizMissing
 from ..run import run
 from ..run.replay import replay_html
 from ..load.template import Sweep, Variation
+from ..parallel import Workers
 from ..sweep.jobs import RunOptions, VariationOutcome
 from ..sweep.runs import file_name, run_variations
 from .jobs import job_probe
@@ -71,9 +72,12 @@ def concrete_case(sweep: Sweep, values: Mapping[str, Any], where: str | None = N
     return doc
 
 
-def evaluator(sweep: Sweep, options: RunOptions, workers: int, executor: Any) -> Callable[[list[dict[str, Any]]], list[dict[str, Any]]]:
+def evaluator(sweep: Sweep, options: RunOptions, workers: int, executor: Any,
+              pool: Workers | None = None) -> Callable[[list[dict[str, Any]]], list[dict[str, Any]]]:  # fmt: skip
     """The search's ``evaluate``: a batch of points run as the sweep's variations (numbered on from 0
-    across batches), each a row with its verdict and every criterion's margin."""
+    across batches), each a row with its verdict and every criterion's margin; on *executor* (a Dask
+    cluster), in *pool* (:class:`~btgen_pytrees.parallel.Workers` kept for the whole search), else in
+    *workers* processes started for each batch (or in this process for one)."""
     counter = [0]
 
     def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -82,7 +86,7 @@ def evaluator(sweep: Sweep, options: RunOptions, workers: int, executor: Any) ->
             point = tuple(values.items())
             variations.append(Variation(counter[0], point, {**sweep.defaults, **values}, concrete_case(sweep, values)))
             counter[0] += 1
-        outcomes = run_variations(sweep, variations, options, None, workers, executor, None, job=job_probe)
+        outcomes = run_variations(sweep, variations, options, None, workers, executor, None, job=job_probe, pool=pool)
         rows = []
         for o in outcomes:
             if isinstance(o, VariationOutcome):

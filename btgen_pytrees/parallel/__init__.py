@@ -12,6 +12,6 @@ plain picklable function, and its invalid input is recognised by the one family
 """
 
 from .outcome import WORDS, Interrupted, Outcome, capped, guard, merge_junit, summary
-from .pool import process, progress_stream
+from .pool import Workers, process, progress_stream
 
-__all__ = ["Outcome", "Interrupted", "guard", "capped", "summary", "merge_junit", "WORDS", "process", "progress_stream"]
+__all__ = ["Outcome", "Interrupted", "guard", "capped", "summary", "merge_junit", "WORDS", "process", "progress_stream", "Workers"]

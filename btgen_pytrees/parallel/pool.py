@@ -24,7 +24,7 @@ from typing import Any, Callable, Iterator, Sequence, TextIO
 from ..errors import ExitCode, Interrupt
 from .outcome import Interrupted, Outcome, guard
 
-__all__ = ["process", "progress_stream"]
+__all__ = ["process", "progress_stream", "Workers"]
 
 
 class _Stop(Interrupt):
@@ -63,7 +63,7 @@ _WATCH = 1.0
 """Seconds between a waiting worker's checks that its parent is alive."""
 
 
-def _worker(conn: Connection, parent: int) -> None:
+def _worker(conn: Connection, parent: int, initializer: Callable[[], None] | None = None) -> None:
     """A worker process: run tasks from *conn* one at a time until told to stop.
 
     Ctrl-C reaches every process of the terminal's group: workers ignore it and
@@ -72,13 +72,16 @@ def _worker(conn: Connection, parent: int) -> None:
     waiting for a task: forked workers hold their pipes' other ends, so no EOF
     would ever come, and they would wait forever. *parent* is the parent's pid as the parent saw
     it before forking: read in the child, it would already be the reaper's when the parent was killed
-    between the fork and the read, and the worker would never notice.
+    between the fork and the read, and the worker would never notice. *initializer* (of a kept pool,
+    :class:`Workers`) is called once, before the first task.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         signal.signal(signal.SIGTERM, _stop)
         if hasattr(signal, "pthread_sigmask"):  # forked with them held (_signals_held): a SIGTERM waiting now stops it
             signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
+        if initializer is not None:
+            initializer()
         while True:
             while not conn.poll(_WATCH):
                 if os.getppid() != parent:  # orphaned: the parent is gone
@@ -114,9 +117,9 @@ def _death(exitcode: int | None) -> str:
 class _Slot:
     """One worker process and the task it is running."""
 
-    def __init__(self, context: multiprocessing.context.BaseContext):
+    def __init__(self, context: multiprocessing.context.BaseContext, initializer: Callable[[], None] | None = None):
         self.conn, child = context.Pipe()
-        self.process = context.Process(target=_worker, args=(child, os.getpid()), daemon=True)
+        self.process = context.Process(target=_worker, args=(child, os.getpid(), initializer), daemon=True)
         self.process.start()
         child.close()
         self.task: int | None = None
@@ -145,9 +148,74 @@ def _stop_all(slots: list[_Slot], grace: float = 0.5, *, asked: bool = False) ->
         slot.conn.close()
 
 
+class Workers:
+    """Worker processes of this machine kept for several calls of :func:`process` (``pool=``).
+
+    :func:`process` alone starts its workers and stops them at its end: right for one sweep or one
+    batch of files, but a search calls it once per batch, and each call would fork its workers again
+    and each of them would start its system afresh (importing libsumo, starting SUMO). A search keeps
+    one :class:`Workers` for all its batches instead; *initializer* runs once in each worker process
+    before its first task (``falsify`` passes :func:`~btgen_pytrees.systems.sumo.keep_simulations`, so a
+    worker keeps its SUMO open between tasks). A worker that dies is replaced, as in :func:`process`;
+    Ctrl-C stops every worker at once; :meth:`close` (or the end of a ``with`` block) lets them leave.
+
+    Args:
+        size: how many worker processes at most
+        initializer: called in each worker process before its first task
+    """
+
+    def __init__(self, size: int, initializer: Callable[[], None] | None = None):
+        self.size = max(1, size)
+        self.initializer = initializer
+        self._context = multiprocessing.get_context()
+        self._slots: list[_Slot] = []
+
+    def __enter__(self) -> "Workers":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def pids(self) -> list[int | None]:
+        """The worker processes' ids (those started so far)."""
+        return [slot.process.pid for slot in self._slots]
+
+    def take(self, n: int) -> list[_Slot]:
+        """*n* workers (at most :attr:`size`), started as needed; every one idle."""
+        with _signals_held():  # every worker is in the list before a Ctrl-C is handled, so none is left behind
+            while len(self._slots) < min(n, self.size):
+                self._slots.append(_Slot(self._context, self.initializer))
+        return self._slots[: min(n, self.size)]
+
+    def replace(self, slot: _Slot) -> _Slot:
+        """A new worker in *slot*'s place (it died, or its pipe broke); *slot*'s process is stopped."""
+        _stop_all([slot])
+        with _signals_held():
+            new = _Slot(self._context, self.initializer)
+        self._slots[self._slots.index(slot)] = new
+        return new
+
+    def stop(self) -> None:
+        """Stop every worker now (SIGTERM, then SIGKILL): Ctrl-C."""
+        slots, self._slots = self._slots, []
+        _stop_all(slots)
+
+    def close(self) -> None:
+        """Ask every worker to leave, and make sure they do (again: nothing)."""
+        slots, self._slots = self._slots, []
+        for slot in slots:
+            try:
+                slot.conn.send(None)
+            except OSError:
+                pass
+        _stop_all(slots, grace=2.0, asked=True)
+
+
 def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]], paths: Sequence[str], *,
             workers: int = 1, progress: TextIO | None = None, isolate: bool | None = None,
-            on_result: Callable[[Outcome], None] | None = None, executor: Any = None) -> list[Outcome]:  # fmt: skip
+            on_result: Callable[[Outcome], None] | None = None, executor: Any = None,
+            pool: Workers | None = None) -> list[Outcome]:  # fmt: skip
     """Run ``job(path, *args)`` for each path (``jobs_args[i]`` are path *i*'s extra arguments).
 
     Outcomes come back in input order whatever order the workers finish in.
@@ -160,6 +228,8 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
     :class:`.dask.DaskExecutor`) runs the jobs instead of
     the local workers: its ``map_unordered(calls)`` yields ``(index, outcome)``
     as they finish (anything but an Outcome is recorded as an internal error).
+    *pool* (a :class:`Workers`) runs the jobs in its kept workers (every job in a
+    worker, even one alone) instead of workers started and stopped for this call.
 
     Raises:
         Interrupted: on Ctrl-C (or a signal the caller turned into
@@ -190,8 +260,9 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
 
     tick()
     if isolate is None:
-        isolate = len(paths) > 1
-    slots: list[_Slot] = []
+        isolate = len(paths) > 1 or pool is not None
+    own = pool is None
+    kept = pool if pool is not None else Workers(workers)
     try:
         if executor is not None:  # another engine (a Dask cluster): the same guarded calls
             stream = executor.map_unordered([partial(guard, job, p, *jobs_args[i]) for i, p in enumerate(paths)])
@@ -205,10 +276,8 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
             for i, path in enumerate(paths):
                 record(i, guard(job, path, *jobs_args[i]))
         else:
-            context = multiprocessing.get_context()
             pending = list(range(len(paths)))[::-1]  # a stack: pop() gives input order
-            with _signals_held():  # every worker is in slots before a Ctrl-C is handled, so none is left behind
-                slots = [_Slot(context) for _ in range(max(1, min(workers, len(paths))))]
+            slots = kept.take(max(1, len(paths)))
             while done < len(paths):
                 for n, slot in enumerate(slots):
                     if slot.task is None and pending:
@@ -218,9 +287,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                             slot.task = task
                         except OSError:  # the idle worker died (killed from outside): a new one, task back
                             pending.append(task)
-                            _stop_all([slot])
-                            with _signals_held():
-                                slots[n] = _Slot(context)
+                            slots[n] = kept.replace(slot)
                 busy = [s for s in slots if s.task is not None]
                 if not busy:  # every idle worker was replaced just now: hand out the tasks again
                     continue
@@ -238,25 +305,18 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                             index = slot.task
                             outcome = Outcome(paths[index], ExitCode.FAIL, f"error: {_death(slot.process.exitcode)}",
                                               [f"{paths[index]}: error: {_death(slot.process.exitcode)}"], result="ERROR")  # fmt: skip
-                            _stop_all([slot])
-                            with _signals_held():
-                                slots[slots.index(slot)] = _Slot(context)
+                            slots[slots.index(slot)] = kept.replace(slot)
                         else:
                             slot.task = None
                         record(index, outcome)
     except KeyboardInterrupt as stop:
-        _stop_all(slots)
-        slots = []
+        kept.stop()
         if progress is not None:
             progress.write("\n")
         raise Interrupted(getattr(stop, "signum", signal.SIGINT), so_far()) from None
     finally:
-        for slot in slots:  # normal end: ask each worker to leave, then make sure
-            try:
-                slot.conn.send(None)
-            except OSError:
-                pass
-        _stop_all(slots, grace=2.0, asked=True)
+        if own:  # normal end: ask each worker to leave, then make sure
+            kept.close()
     if progress is not None:
         progress.write("\n")
     return [r for r in results if r is not None]

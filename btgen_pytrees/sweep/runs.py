@@ -16,7 +16,7 @@ from ..leaves import Registry, default_registry
 from ..leaves.plugins import is_path
 from ..errors import ExitCode
 from ..load import system_spec
-from ..parallel import Interrupted, Outcome, process
+from ..parallel import Interrupted, Outcome, Workers, process
 from ..parallel.shipping import Files, read_files
 from ..contracts.system import SystemSpec
 from ..load.template import Sweep, Variation
@@ -95,7 +95,7 @@ def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequen
 
 def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOptions, system: SystemSpec | None,
                    workers: int, executor: Any = None, progress: Any = None,
-                   job: Callable[..., ChunkOutcome] = job_chunk) -> list[Outcome]:  # fmt: skip
+                   job: Callable[..., ChunkOutcome] = job_chunk, pool: Workers | None = None) -> list[Outcome]:  # fmt: skip
     """Run *variations*; one outcome per variation, in order.
 
     *job* runs a chunk (default :func:`~.jobs.job_chunk`; ``falsify`` passes its own, which
@@ -107,6 +107,7 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     (:func:`~.jobs.chunk_size`: about 8 per worker, at most 32 runs each), so the cost of
     handing a task to a process is paid once per chunk; a worker that dies costs its chunk
     (each of its variations gets the error). A :class:`~btgen_pytrees.parallel.dask.DaskExecutor` chunks by itself.
+    *pool* (a :class:`~btgen_pytrees.parallel.Workers`) runs the chunks in workers kept across calls (a search's batches).
 
     Raises:
         Interrupted: Ctrl-C; its ``finished`` tells how many variations had run.
@@ -120,7 +121,7 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     job_args = [(options, sweep.source, [(v.label, v.document, s) for v, s in zip(c, systems[k:k + size])])
                 for k, c in zip(starts, chunks)]  # fmt: skip
     try:
-        done = process(job, job_args, names, workers=workers, progress=progress, executor=executor)
+        done = process(job, job_args, names, workers=workers, progress=progress, executor=executor, pool=pool)
     except Interrupted as stop:
         stop.finished = sum(len(c) for c, o in zip(chunks, stop.outcomes) if o.code != ExitCode.INTERRUPTED)  # type: ignore[attr-defined]
         raise

@@ -62,7 +62,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...contracts.environment import Environment
 
 __all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT", "tick_problem",
-           "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation"]
+           "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations"]
 
 INSTALL_HINT = "pip install -e '.[sumo]'"
 ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", "ttc", "present", "collided")
@@ -119,6 +119,17 @@ def reuse_simulations() -> Iterator[None]:
             kept = _take_kept() if _scopes == 0 else None
             if kept is not None:
                 kept.close()
+
+
+def keep_simulations() -> None:
+    """A :func:`reuse_simulations` block open for the rest of this process: a kept pool's worker process
+    (:class:`~btgen_pytrees.parallel.pool.Workers`, a search's) calls it before its first task, so its SUMO
+    stays open from one task to the next and is set back between them. Its kept simulation is closed when
+    the process leaves (multiprocessing's finalizers, registered when a simulation is kept), or by a run
+    with another key."""
+    global _scopes
+    with _claim:
+        _scopes += 1
 
 
 def reuse_for(runs: int) -> contextlib.AbstractContextManager[None]:

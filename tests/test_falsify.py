@@ -185,6 +185,18 @@ def test_the_default_batch_is_the_worker_count_and_every_batch_is_deterministic(
     assert three[0]["runs"] != two["runs"]
 
 
+@pytest.mark.parametrize("method", ["gp", "cmaes", "tpe", "sobol", "random"])
+@pytest.mark.parametrize("seed", [2**32 - 1, 2**64 + 3])
+def test_any_seed_searches(tmp_path: pathlib.Path, method: str, seed: int) -> None:
+    """The seed has no upper limit: one past NumPy's legacy generators' 2**32 - 1 (Optuna's samplers and
+    the cmaes library seed one; CMA-ES's restarts and TPE's add to the seed) searches like any other."""
+    target = tmp_path / "f.json"
+    code = main(["falsify", str(ISLAND), "--method", method, "--budget", "16", "--seed", str(seed), "--jobs", "1", "--json", str(target)])
+    assert code in (0, 1)
+    report = json.loads(target.read_text())
+    assert report["seed"] == seed and report["runs_done"] == 16
+
+
 # -- margins -----------------------------------------------------------------------------------------
 
 

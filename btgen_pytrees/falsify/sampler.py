@@ -53,6 +53,13 @@ RESTART_SIGMA = 0.3
 """The step size of a restart (a new region: wider)."""
 
 
+def _legacy_seed(seed: int) -> int:
+    """*seed* for a generator that takes 0 to 2**32 - 1 only (NumPy's ``RandomState``, behind Optuna's samplers
+    and the ``cmaes`` library): the seed modulo 2**32, so every non-negative seed - and a restart's seed
+    above it - searches (a seed below the limit is itself)."""
+    return seed % 2**32
+
+
 class SearchUnavailable(RuntimeError):
     """The optional optimiser libraries are missing; ``str()`` says which extra to install."""
 
@@ -132,7 +139,7 @@ class Sampler:
         self._sobol: Any = None
         if self.method == "random":
             with _quiet(optuna):
-                self._study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=seed))
+                self._study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=_legacy_seed(seed)))
         else:  # the Sobol sequence Optuna's QMCSampler draws, from SciPy directly (a fraction of its cost per point)
             from scipy.stats import qmc
 
@@ -246,7 +253,7 @@ class Sampler:
         self._stage = stage
         if stage == "tpe":
             with _quiet(optuna):
-                sampler = optuna.samplers.TPESampler(seed=self.seed + 1 + self.restarts, n_startup_trials=0, multivariate=True,
+                sampler = optuna.samplers.TPESampler(seed=_legacy_seed(self.seed + 1 + self.restarts), n_startup_trials=0, multivariate=True,
                                                      constant_liar=True, warn_independent_sampling=False)  # fmt: skip
                 study = optuna.create_study(sampler=sampler)
                 study.add_trials([optuna.trial.create_trial(params=self._params(x), distributions=self._dists, value=y)
@@ -300,7 +307,7 @@ class Sampler:
         per = self.batch - 1 if self.batch > 1 else 1  # CMA-ES's points of a batch (the first is the model's)
         size = per * max(1, math.ceil(base / per))
         mean = np.clip(np.array(self._continuous(x0), dtype=float), 0.0, 1.0)
-        self._cma = CMA(mean=mean, sigma=sigma, bounds=np.array([[0.0, 1.0]] * dims), seed=self.seed + 7919 * len(self._starts),
+        self._cma = CMA(mean=mean, sigma=sigma, bounds=np.array([[0.0, 1.0]] * dims), seed=_legacy_seed(self.seed + 7919 * len(self._starts)),
                         population_size=size)  # fmt: skip
         self._generation = []
         self._stale = 0

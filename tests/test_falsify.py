@@ -554,6 +554,23 @@ def test_on_a_dask_local_cluster_the_search_is_the_local_pools(tmp_path: pathlib
     assert remote.stdout == local.stdout
 
 
+def test_the_grid_baseline_of_a_fine_resolution_is_worked_out_not_stepped(tmp_path: pathlib.Path) -> None:
+    """A resolution is not a grid to run (the search's box is continuous), so a fine one is fine: the
+    grid baseline's first point inside a failure box is found without stepping through 10**10 points."""
+    data = island(variations={"a": {"from": 0, "to": 10, "step": 1e-9}, "b": {"from": 0, "to": 5, "step": 0.025}})
+    data["oracle"]["criteria"][0]["expect"] = "x <= 9.5"
+    target = tmp_path / "f.json"
+    assert main(["falsify", write(tmp_path, data), "--budget", "24", "--stop", "first", "--jobs", "1", "--json", str(target)]) == 1
+    report = json.loads(target.read_text())
+    grid = report["baselines"]["grid"]
+    assert grid["points"] == (10**10 + 1) * 201
+    box = report["clusters"][0]["box"]
+    ka, kb = divmod(grid["first_failure"] - 1, 201)  # the sweep's order: a slowest
+    a, b = ka * 1e-9, kb * 0.025
+    assert box["a"][0] - 1e-9 <= a <= box["a"][1] and box["a"][0] - 1e-9 < (ka - 1) * 1e-9 < box["a"][0]
+    assert box["b"][0] - 0.025 < b <= box["b"][1] + 1e-12
+
+
 def test_the_json_report_follows_its_schema(tmp_path: pathlib.Path) -> None:
     import jsonschema
 

@@ -15,6 +15,7 @@ that as many uniform runs would have missed with 5 % chance (3 / runs).
 
 from __future__ import annotations
 
+import bisect
 import json
 import math
 from typing import Any, Mapping, Sequence
@@ -88,10 +89,12 @@ def _grid_first(space: Space, box: Sequence[Any]) -> int | None:
     for d, part in zip(space.dimensions, box):
         if d.continuous:
             n = d.grid_size()
-            inside = [k for k in range(n) if part[0] - 1e-12 <= (d.unit(d.low + k * d.resolution) or 0.0) <= part[1] + 1e-12]
-            if not inside:
+            # a grid point's unit coordinate grows with its number: bisect for the first at or past the box's
+            # low end (a fine resolution is a grid of billions of points, never stepped through)
+            first = bisect.bisect_left(range(n), True, key=lambda k: part[0] - 1e-12 <= (d.unit(d.low + k * d.resolution) or 0.0))
+            if first == n or (d.unit(d.low + first * d.resolution) or 0.0) > part[1] + 1e-12:
                 return None
-            ks.append((inside[0], n))
+            ks.append((first, n))
         else:
             if not part:
                 return None

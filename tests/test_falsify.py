@@ -137,6 +137,30 @@ def test_bad_options_are_exit_2(tmp_path: pathlib.Path, capsys: Any, args: list[
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("outputs, message", [
+    (["--out-dir", "{tmp}/a_file/cases"], "--out-dir {tmp}/a_file/cases: cannot be created"),
+    (["--json", "{tmp}/same.svg", "--plot", "{tmp}/same.svg"], "the same file"),
+])  # fmt: skip
+def test_outputs_that_cannot_be_written_are_exit_2_before_anything_runs(tmp_path: pathlib.Path, capsys: Any,
+                                                                         outputs: list[str], message: str) -> None:  # fmt: skip
+    """An --out-dir under a file, or --json and --plot naming one file, is refused at once (it was an
+    internal error after the whole search, exit 3)."""
+    (tmp_path / "a_file").write_text("")
+    args = [a.format(tmp=tmp_path) for a in outputs]
+    assert main(["falsify", str(ISLAND), "--budget", "40", "--stop", "first", "--jobs", "1", *args]) == 2
+    captured = capsys.readouterr()
+    assert message.format(tmp=tmp_path) in captured.err and "internal error" not in captured.err
+    assert captured.out == "" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]  # nothing ran, nothing written
+
+
+def test_the_json_on_stdout_is_the_document_alone_and_the_table_goes_to_stderr(tmp_path: pathlib.Path) -> None:
+    """``--json -`` writes the report on stdout, as ``run`` and ``sweep`` do: then the table goes to stderr."""
+    done = cli("falsify", str(ISLAND), "--budget", "12", "--jobs", "1", "--json", "-")
+    assert done.returncode == 1, done.stderr
+    assert json.loads(done.stdout)["verdict"] == "falsified"
+    assert "FALSIFIED" in done.stderr and "uniform random" in done.stderr
+
+
 def test_a_case_without_variations_is_exit_2(tmp_path: pathlib.Path, capsys: Any) -> None:
     assert main(["falsify", str(ROOT / "examples" / "fig1.json")]) == 2
     assert "/variations" in capsys.readouterr().err

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import os
 import signal
 import sys
 from typing import Any
@@ -25,13 +24,14 @@ from ..falsify.sampler import HINT, METHODS, available
 from ..falsify.search import Search
 from ..falsify.space import Space
 from ..load import validate
-from ..writing import check_target, commit, emit
+from ..writing import check_distinct, check_target, commit, emit, on_stdout
 from ..parallel import Interrupted, Workers, progress_stream
 from ..run.plot import plot_format
 from ..load.sweep import load_sweep
 from ..load.template import Sweep
 from ..load.variations import format_value
 from ..systems.sumo import keep_simulations, reuse_simulations
+from .checks import check_out_dir, make_out_dir
 from .options import Parents, registry
 from .sweep import add_executor_options, make_executor, run_options
 
@@ -74,13 +74,14 @@ def progress_line(stream: Any) -> Any:
 
 
 def check_outputs(args: argparse.Namespace) -> None:
-    """--json, --plot and --out-dir can be written (checked before anything runs)."""
+    """--json, --plot and --out-dir can be written, and --json and --plot are two files (checked before
+    anything runs)."""
     for path, option in ((args.json, "--json"), (args.plot, "--plot")):
         if path:
             check_target(path, option, [args.file])  # OutputError: a usage error
-    out = args.out_dir
-    if out and os.path.exists(out) and not os.path.isdir(out):
-        raise UsageError(f"--out-dir {out}: exists and is not a directory")
+    check_distinct([("--json", args.json), ("--plot", args.plot)])
+    if args.out_dir:
+        check_out_dir(args, [args.file], writes_json=False)  # a directory, or one that can be made
 
 
 def cmd_falsify(args: argparse.Namespace) -> int:
@@ -132,7 +133,7 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     if args.json:
         outputs.append((args.json, to_json(data)))
     if args.out_dir and data["counterexamples"]:
-        os.makedirs(args.out_dir, exist_ok=True)
+        make_out_dir(args)
         cases, notes = counterexample_files(sweep, data, args.out_dir, known)
         for note in notes:
             print(f"btgen_pytrees: {note}", file=sys.stderr)
@@ -140,7 +141,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     if args.plot:
         outputs.append((args.plot, search_plot(search, data, plot_format(args.plot))))
     commit(outputs)
-    emit(table(data))  # the real stdout (the CLI sends file descriptor 1 to stderr for user code)
+    # the real stdout (the CLI sends file descriptor 1 to stderr for user code); stderr when --json is stdout
+    emit(table(data), sys.stderr if on_stdout([args.json]) else None)
     if signum is not None:
         emit(f"btgen_pytrees: interrupted by {signal.Signals(signum).name} after {len(search.runs)} runs; what was found is kept\n",
              sys.stderr)  # fmt: skip

@@ -303,6 +303,37 @@ def test_a_sumo_sweep_from_a_relative_path_on_workers_elsewhere_with_two_threads
 
 
 @needs_sumo
+def test_each_worker_keeps_its_sumo_between_tasks_and_lets_it_go_when_the_sweep_ends(elsewhere: tuple[Any, pathlib.Path]) -> None:
+    """A sweep's (and a search's) executor keeps SUMO open in each worker process from one task to the
+    next (``keep``: it was started for every run, a task being one variation), with 2 threads per worker,
+    and every row is the local pool's; when the executor closes, no worker keeps one any more."""
+    from distributed import Client
+
+    from btgen_pytrees.parallel.dask import DaskExecutor
+    from btgen_pytrees.sweep import load_sweep
+    from btgen_pytrees.sweep.jobs import RunOptions
+    from btgen_pytrees.sweep.runs import run_variations
+    from btgen_pytrees.systems.sumo import keep_simulations, kept_simulation, release_simulations
+
+    cluster, client_dir = elsewhere
+    sweep = load_sweep(str(client_dir / "cut_in_sweep.json"))
+    variations = list(sweep)[:16]
+    local = run_variations(sweep, variations, RunOptions(), None, 2)
+    with Client(cluster.scheduler_address, set_as_default=False) as client:
+        executor = DaskExecutor(cluster.scheduler_address, keep=(keep_simulations, release_simulations))
+        try:
+            first = run_variations(sweep, variations[:8], RunOptions(), None, 1, executor)
+            during = client.run(kept_simulation)
+            second = run_variations(sweep, variations[8:], RunOptions(), None, 1, executor)
+        finally:
+            executor.close()
+        after = client.run(kept_simulation)
+    assert [o.row for o in first + second] == [o.row for o in local]  # type: ignore[attr-defined]
+    assert any(key is not None for key in during.values()), during
+    assert all(key is None for key in after.values()), after
+
+
+@needs_sumo
 def test_a_batch_of_sumo_cases_runs_on_workers_elsewhere(elsewhere: tuple[Any, pathlib.Path], tmp_path: pathlib.Path) -> None:
     cluster, client_dir = elsewhere
     files = ["cut_in.json", "acc_hard_brake.json"]

@@ -30,7 +30,7 @@ from ..run.plot import plot_format
 from ..load.sweep import load_sweep
 from ..load.template import Sweep
 from ..load.variations import format_value
-from ..systems.sumo import keep_simulations, reuse_simulations
+from ..systems.sumo import keep_simulations, release_simulations, reuse_simulations
 from .checks import check_out_dir, make_out_dir
 from .options import Parents, registry
 from .sweep import add_executor_options, make_executor, run_options
@@ -103,7 +103,7 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     space = Space.of(sweep.variations)
     known = registry(args)
     groups = groups_of(validate(concrete_case(sweep, {}), sweep.source, known))
-    executor = make_executor(args)
+    executor = make_executor(args, keep=(keep_simulations, release_simulations))  # each worker keeps its SUMO open
     if executor is not None:  # the batch follows the cluster's workers, as it follows --jobs locally
         settings = settings_of(sweep.search, vars(args), criteria_ids, sweep.source, executor.workers())
     stream = progress_stream()

@@ -29,6 +29,7 @@ from ..sweep import MAX_VARIATIONS, Sweep, load_sweep
 from ..sweep.jobs import RunOptions
 from ..sweep.plot import map_bytes
 from ..sweep.runs import file_name, run_variations, sweep_report
+from ..systems.sumo import keep_simulations, release_simulations
 from .options import Parents, chosen, registry
 
 __all__ = ["add_parser", "add_executor_options", "cmd_expand", "run_sweep", "make_executor", "checked_scheduler",
@@ -110,8 +111,9 @@ def moved(document: dict[str, Any], source: str, out_dir: str) -> dict[str, Any]
     return {**document, "system": {**document["system"], "config": config}}
 
 
-def make_executor(args: argparse.Namespace) -> Any:
-    """None for the local pool; a connected :class:`~btgen_pytrees.parallel.dask.DaskExecutor` for ``--executor dask``.
+def make_executor(args: argparse.Namespace, keep: Any = None) -> Any:
+    """None for the local pool; a connected :class:`~btgen_pytrees.parallel.dask.DaskExecutor` for ``--executor dask``
+    (*keep*: its ``keep``, what each worker process enters before its first task and leaves at the end).
 
     Raises:
         UsageError: no scheduler address.
@@ -122,7 +124,7 @@ def make_executor(args: argparse.Namespace) -> Any:
     if address is None:
         return None
     try:
-        executor = DaskExecutor(address)
+        executor = DaskExecutor(address, keep=keep)
         executor.connect()
     finally:  # the command says itself what went wrong with the cluster, in one line; distributed's own
         # log records (tracebacks of its reconnection attempts) would bury it. Its loggers exist once it is imported.
@@ -167,7 +169,7 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
             raise UsageError(f"--{option} shows a single run; a sweep has many (run one variation from 'expand')")
     checked_scheduler(args)  # a malformed address is refused before the variations are validated
     sweep = load(args, data, system)
-    executor = make_executor(args)
+    executor = make_executor(args, keep=(keep_simulations, release_simulations))  # each worker keeps its SUMO open
     variations = list(sweep)
     try:
         outcomes = run_variations(sweep, variations, run_options(args), system, args.jobs, executor,

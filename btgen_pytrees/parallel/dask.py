@@ -29,6 +29,12 @@ What the cluster gets and gives back:
   times) and still completes only once. A chunk that keeps killing workers comes
   back as a :class:`TaskFailed` for each of its calls (``process`` records
   it as an internal error, code 3), so the final report is complete either way.
+* **Kept between tasks.** An executor made with ``keep=(enter, leave)`` calls
+  ``enter()`` in each worker process before the first of its tasks there, and
+  ``leave()`` in each such process when it closes (a sweep and a search pass
+  :func:`~btgen_pytrees.systems.sumo.keep_simulations` and
+  :func:`~btgen_pytrees.systems.sumo.release_simulations`: a worker keeps its SUMO
+  open from one task to the next, and lets it go when the command ends).
 * **Cancellation.** If the consumer stops early (Ctrl-C raises
   ``KeyboardInterrupt`` in the loop, or the generator is closed), every task not
   yet finished is cancelled on the cluster before the client disconnects.
@@ -51,7 +57,7 @@ from ..errors import UserError
 from .shipping import Files, install
 
 __all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "TaskFailed", "scheduler_address",
-           "check_address", "run_chunk", "CHUNKS_PER_WORKER", "MAX_CHUNK"]  # fmt: skip
+           "check_address", "run_chunk", "leave_kept", "CHUNKS_PER_WORKER", "MAX_CHUNK", "LEAVE_WAIT"]  # fmt: skip
 
 CHUNKS_PER_WORKER = 8
 """Tasks per worker a sweep is split into (more: finer progress and balance; fewer: less overhead)."""
@@ -115,6 +121,11 @@ def check_address(address: str) -> str:
 
 _one_run = threading.Lock()
 """Held while a task runs: one run at a time in a worker process, whatever its number of threads."""
+_entered: set[str] = set()
+"""The executors (their tokens) whose ``keep`` entered this worker process (changed under :data:`_one_run`)."""
+LEAVE_WAIT = 10.0
+"""Seconds a worker waits for its running task (another client's) before it gives up leaving (the process keeps what
+it kept until it ends)."""
 
 
 def _scratch() -> str | None:
@@ -127,13 +138,32 @@ def _scratch() -> str | None:
         return None
 
 
-def run_chunk(chunk: Sequence[tuple[int, Callable[[], Any]]], files: Files | None = None) -> list[tuple[int, Any]]:
+def run_chunk(chunk: Sequence[tuple[int, Callable[[], Any]]], files: Files | None = None,
+              keep: tuple[str, Callable[[], None]] | None = None) -> list[tuple[int, Any]]:  # fmt: skip
     """The task a worker runs: every call of *chunk*, in order, with its index, one task at a time
-    per process; *files* (sent once per worker) are installed first."""
+    per process; *files* (sent once per worker) are installed first; *keep* (an executor's token and
+    its ``enter``) is entered first if this process has not entered it yet."""
     if files is not None:
         install(files, _scratch())
     with _one_run:
+        if keep is not None and keep[0] not in _entered:
+            keep[1]()
+            _entered.add(keep[0])
         return [(i, call()) for i, call in chunk]
+
+
+def leave_kept(token: str, leave: Callable[[], None]) -> bool:
+    """In a worker process: ``leave()`` if the executor *token* entered it (between two tasks); whether it did."""
+    if not _one_run.acquire(timeout=LEAVE_WAIT):
+        return False
+    try:
+        if token not in _entered:
+            return False
+        _entered.discard(token)
+        leave()
+        return True
+    finally:
+        _one_run.release()
 
 
 class DaskExecutor(Executor):
@@ -143,9 +173,12 @@ class DaskExecutor(Executor):
         address: ``tcp://HOST:PORT`` of a running scheduler
         chunk: calls per task (default: from the number of workers, see :data:`CHUNKS_PER_WORKER`)
         timeout: seconds to wait for the scheduler when connecting
+        keep: ``(enter, leave)``: called in each worker process before its first task of this executor,
+            and when the executor closes (module-level functions: they are sent to the workers)
     """
 
-    def __init__(self, address: str, *, chunk: int | None = None, timeout: float = 10.0):
+    def __init__(self, address: str, *, chunk: int | None = None, timeout: float = 10.0,
+                 keep: tuple[Callable[[], None], Callable[[], None]] | None = None):  # fmt: skip
         if importlib.util.find_spec("distributed") is None:
             raise DaskUnavailable(HINT)
         self.address = check_address(address)
@@ -155,6 +188,8 @@ class DaskExecutor(Executor):
         self._files: Any = None  # the future of the shipped Files, on the cluster
         self.lost: str | None = None
         """Set when the scheduler was lost during :meth:`map_unordered`: what happened, in words."""
+        self._keep = (uuid.uuid4().hex, keep[0]) if keep is not None else None
+        self._leave = keep[1] if keep is not None else None
 
     def ship(self, files: Files) -> None:
         """Send *files* to every worker once (workers that join later fetch them from the others);
@@ -177,9 +212,14 @@ class DaskExecutor(Executor):
             raise DaskUnavailable(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
 
     def close(self) -> None:
-        """Disconnect (the cluster itself keeps running)."""
+        """Disconnect (the cluster itself keeps running); the workers this executor's ``keep`` entered leave it."""
         if self._client is not None:
             self._files = None
+            try:
+                if self._keep is not None and self._client.status == "running":
+                    self._client.run(leave_kept, self._keep[0], self._leave)
+            except Exception:  # noqa: BLE001 - a worker or the scheduler gone: what it kept ends with its process
+                pass
             try:
                 self._client.close()
             except (OSError, TimeoutError, RuntimeError):  # the scheduler is gone already
@@ -213,7 +253,7 @@ class DaskExecutor(Executor):
             pairs = list(enumerate(calls))
             chunks = [pairs[start:start + size] for start in range(0, len(pairs), size)]
             token = uuid.uuid4().hex[:12]
-            futures = [client.submit(run_chunk, chunk, self._files, key=f"btgen-{token}-{j}", pure=False)
+            futures = [client.submit(run_chunk, chunk, self._files, self._keep, key=f"btgen-{token}-{j}", pure=False)
                        for j, chunk in enumerate(chunks)]  # fmt: skip
             owner = {f.key: chunk for f, chunk in zip(futures, chunks)}
             finished: set[int] = set()

@@ -24,12 +24,12 @@ from ...expressions import RESERVED
 from ...model import DEFAULT_TICK
 from ...text import did_you_mean
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
-from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, keep_simulations, kept_simulation, reuse_for, reuse_simulations, tick_problem
+from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, keep_simulations, kept_simulation, release_simulations, reuse_for, reuse_simulations, tick_problem
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...model import TestCase
 
-__all__ = ["SumoType", "SUMO", "SumoSystem", "signal_vehicles", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations"]
+__all__ = ["SumoType", "SUMO", "SumoSystem", "signal_vehicles", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations", "release_simulations"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*(?![\s\S])")
 

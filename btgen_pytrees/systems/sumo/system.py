@@ -62,7 +62,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...contracts.environment import Environment
 
 __all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT", "tick_problem",
-           "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations"]
+           "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations",
+           "release_simulations"]
 
 INSTALL_HINT = "pip install -e '.[sumo]'"
 ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", "ttc", "present", "collided")
@@ -108,28 +109,33 @@ def reuse_simulations() -> Iterator[None]:
     generators are set back too, so a run gives the same report whatever ran before it in the
     process (docs/sumo.md, "One process, many runs"). Blocks nest; any thread may open one.
     """
-    global _scopes
-    with _claim:
-        _scopes += 1
+    keep_simulations()
     try:
         yield
     finally:
-        with _claim:  # closed under the claim: no run may start libsumo while it closes
-            _scopes -= 1
-            kept = _take_kept() if _scopes == 0 else None
-            if kept is not None:
-                kept.close()
+        release_simulations()
 
 
 def keep_simulations() -> None:
-    """A :func:`reuse_simulations` block open for the rest of this process: a kept pool's worker process
-    (:class:`~btgen_pytrees.parallel.pool.Workers`, a search's) calls it before its first task, so its SUMO
-    stays open from one task to the next and is set back between them. Its kept simulation is closed when
-    the process leaves (multiprocessing's finalizers, registered when a simulation is kept), or by a run
+    """Open a :func:`reuse_simulations` block without a ``with``: until :func:`release_simulations`, or for
+    the rest of the process. A kept pool's worker process (:class:`~btgen_pytrees.parallel.pool.Workers`,
+    a search's) calls it before its first task, and a Dask worker before its first task of a sweep or a
+    search, so its SUMO stays open from one task to the next and is set back between them. A simulation
+    still kept is closed when the process leaves (atexit, or multiprocessing's finalizers), or by a run
     with another key."""
     global _scopes
     with _claim:
         _scopes += 1
+
+
+def release_simulations() -> None:
+    """Close the block :func:`keep_simulations` opened (the end of the outermost closes the kept simulation)."""
+    global _scopes
+    with _claim:  # closed under the claim: no run may start libsumo while it closes
+        _scopes = max(0, _scopes - 1)
+        kept = _take_kept() if _scopes == 0 else None
+        if kept is not None:
+            kept.close()
 
 
 def reuse_for(runs: int) -> contextlib.AbstractContextManager[None]:

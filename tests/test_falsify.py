@@ -537,6 +537,25 @@ def test_counterexamples_reproduce_their_failure_and_margins_when_run_alone(tmp_
         assert {o.id: o.margin for o in again.oracles} == ce["margins"]
 
 
+def test_counterexamples_at_one_point_are_one_file(tmp_path: pathlib.Path) -> None:
+    """Where the nominal point fails, every cluster's shrink ends there: the clusters' counterexamples are
+    one case, written once (two writes of one file were an internal error, exit 3, and no file at all)."""
+    data = island()
+    data["oracle"]["criteria"][0]["expect"] = "x < -1"  # fails everywhere, the nominal point too
+    out = tmp_path / "cases"
+    target = tmp_path / "f.json"
+    assert main(["falsify", write(tmp_path, data), "--budget", "30", "--jobs", "1", "--out-dir", str(out), "--json", str(target)]) == 1
+    report = json.loads(target.read_text())
+    labels = {ce["label"] for ce in report["counterexamples"]}
+    assert len(report["clusters"]) > 1 and len(labels) < len(report["counterexamples"])  # the case above
+    files = sorted(out.glob("*.json"))
+    assert len(files) == len(labels)
+    for ce in report["counterexamples"]:
+        path = next(f for f in files if f"[{ce['label']}]" in f.name)
+        again = run(btgen_pytrees.load(str(path)))
+        assert again.verdict == ce["verdict"] and {o.id: o.margin for o in again.oracles} == ce["margins"]
+
+
 @pytest.mark.skipif(not os.environ.get("CI") and __import__("importlib").util.find_spec("libsumo") is None,
                     reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)")  # fmt: skip
 def test_a_sumo_counterexample_runs_from_any_directory(tmp_path: pathlib.Path) -> None:

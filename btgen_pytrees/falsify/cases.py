@@ -104,10 +104,16 @@ def evaluator(sweep: Sweep, options: RunOptions, workers: int, executor: Any,
 def counterexample_files(sweep: Sweep, data: Mapping[str, Any], out_dir: str,
                          registry: Registry) -> tuple[list[tuple[str, str | bytes]], list[str]]:  # fmt: skip
     """Each counterexample as a concrete case in *out_dir* (runnable from any directory) and its replay
-    page (``.html`` beside it); and a note for each page that could not be drawn (Graphviz is missing)."""
+    page (``.html`` beside it); and a note for each page that could not be drawn (Graphviz is missing).
+    Counterexamples with the same values are one case, written once (the first's): where the nominal
+    point fails, every cluster's shrink ends there."""
     outputs: list[tuple[str, str | bytes]] = []
     notes: list[str] = []
+    written: set[str] = set()
     for k, ce in enumerate(data["counterexamples"]):
+        if ce["label"] in written:
+            continue
+        written.add(ce["label"])
         doc = concrete_case(sweep, ce["parameters"], out_dir)
         what = f"counterexample {k + 1} ({ce['kind']}, cluster {ce['cluster']}) of {os.path.basename(sweep.source)} found by falsify: {ce['label']}"
         doc["description"] = f"{doc['description']} ({what})" if doc.get("description") else what[0].upper() + what[1:]

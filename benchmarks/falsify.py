@@ -46,6 +46,14 @@ the bare loop cannot alternate run by run), medians over 20 settings x 5 rounds 
 and CPU time of this process: SUMO runs in it); also the search's runs each starting SUMO (as
 before the reuse), the bare loop started once and reloaded with ``libsumo.load`` (libsumo's load
 is its close plus its start: the two cost the same), and where the search's run spends its time.
+
+``--workers N`` runs each case's search (seed 3, ``--workers-budget`` runs, batch N, ``stop: all``) the
+way ``falsify --jobs N`` runs it - its batches through the sweep's local pool - with the N worker
+processes kept for the whole search (``parallel.Workers``, each keeping its SUMO open), and with a pool
+started and stopped for every batch (as before), taking turns, 2 rounds: wall-clock seconds per search
+and their ratio; both must run the same search (every run's verdict and margins compared). Each case is
+measured in a new Python process, as the command is: a process that has run SUMO itself (the searches
+above) forks workers that have libsumo imported already, which the command's workers never have.
 """
 
 from __future__ import annotations
@@ -66,12 +74,14 @@ if __package__ in (None, ""):  # run as a file
 from btgen_pytrees.leaves import default_registry  # noqa: E402
 from btgen_pytrees.load import validate  # noqa: E402
 from btgen_pytrees.falsify import Search, Settings, Space  # noqa: E402
+from btgen_pytrees.falsify.cases import evaluator  # noqa: E402
 from btgen_pytrees.falsify.jobs import timed  # noqa: E402
 from btgen_pytrees.falsify.margins import groups_of, row_margins  # noqa: E402
 from btgen_pytrees.falsify.sampler import available  # noqa: E402
 from btgen_pytrees.sweep.jobs import RunOptions  # noqa: E402
 from btgen_pytrees.sweep import load_sweep  # noqa: E402
-from btgen_pytrees.systems.sumo import reuse_simulations  # noqa: E402
+from btgen_pytrees.parallel import Workers  # noqa: E402
+from btgen_pytrees.systems.sumo import keep_simulations, reuse_simulations  # noqa: E402
 
 __all__ = ["main", "CASES", "truth", "declared_truth", "island_margin", "case_path", "search_case", "GOALS"]
 
@@ -329,6 +339,65 @@ def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1,
             "boundary_max": max(distances) if distances else None, "boundary_points": len(distances)}  # fmt: skip
 
 
+def workers_case(name: str, workers: int, budget: int, kept: bool) -> dict[str, Any]:
+    """*name*'s search as ``falsify --jobs WORKERS`` runs it (seed 3, batch WORKERS, ``stop: all``), its workers
+    kept for the whole search (*kept*) or a pool started for each batch (as before): seconds, and every run."""
+    sweep = _sweep(name)
+    space = Space.of(sweep.variations)
+    groups = groups_of(validate(sweep.document(sweep.defaults), sweep.source, default_registry()))
+    settings = Settings(method="auto", seed=3, budget=budget, batch=workers, stop="all")
+    available()  # the optimiser libraries' import is the process's, paid once (as in search_case): not timed
+    import scipy.linalg  # noqa: F401
+    import scipy.special  # noqa: F401
+
+    t0 = time.perf_counter()
+    pool = Workers(workers, keep_simulations) if kept else None
+    try:
+        search = Search(space, sweep.defaults, settings, evaluator(sweep, RunOptions(), workers, None, pool), groups).run()
+    finally:
+        if pool is not None:
+            pool.close()
+    return {"seconds": time.perf_counter() - t0, "runs": [[r.parameters, r.verdict, r.row.get("margins")] for r in search.runs]}
+
+
+_WORKERS_CHILD = ("import json, sys\nfrom benchmarks.falsify import workers_case\n"
+                  "print(json.dumps(workers_case(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == 'kept')))\n")  # fmt: skip
+
+
+def workers_in_new_process(name: str, workers: int, budget: int, rounds: int = 2) -> dict[str, Any]:
+    """:func:`workers_case` both ways, taking turns, each search in a new Python process (one that has run
+    nothing of SUMO itself, as the command: a batch of one point runs in the process, and afterwards its
+    forked workers would have libsumo imported already); the least of *rounds* seconds each."""
+    import os
+    import subprocess
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT.parent), os.environ.get("PYTHONPATH")]))}
+    times: dict[str, list[float]] = {"kept": [], "per batch": []}
+    runs: dict[str, Any] = {}
+    for _ in range(rounds):
+        for how in times:
+            done = subprocess.run([sys.executable, "-c", _WORKERS_CHILD, name, str(workers), str(budget), how.replace(" ", "-")],
+                                  capture_output=True, text=True, cwd=ROOT.parent, env=env, check=True)  # fmt: skip
+            one = json.loads(done.stdout.splitlines()[-1])
+            times[how].append(one["seconds"])
+            if runs.setdefault(how, one["runs"]) != one["runs"]:
+                raise AssertionError(f"{name}: the same search ran differently")
+    if runs["kept"] != runs["per batch"]:
+        raise AssertionError(f"{name}: the kept workers ran another search")
+    kept, fresh = min(times["kept"]), min(times["per batch"])
+    return {"case": name, "workers": workers, "runs": len(runs["kept"]), "kept_s": kept, "per_batch_s": fresh,
+            "ratio": fresh / kept, "times": times}  # fmt: skip
+
+
+def workers_text(rows: Sequence[dict[str, Any]]) -> str:
+    lines = [f"\nfalsify's batches through the local pool (seed 3, batch = workers, stop: all; each search in a new process, "
+             f"the least of {len(rows[0]['times']['kept'])}):"]  # fmt: skip
+    for r in rows:
+        lines.append(f"{r['case']}: {r['runs']} runs on {r['workers']} workers kept for the search {r['kept_s']:.2f} s, "
+                     f"a pool started per batch {r['per_batch_s']:.2f} s: {r['ratio']:.1f}x; the same search")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
 # -- a bare libsumo loop -----------------------------------------------------------------------------------
 
 
@@ -525,6 +594,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--truth", action="store_true", help="compute the ground-truth grids again and store them")
     parser.add_argument("--truth-jobs", type=int, default=1, metavar="N", help="processes for --truth's grid (default 1)")
     parser.add_argument("--sumo-loop", action="store_true", help="also compare a SUMO run in a search with a bare libsumo loop")
+    parser.add_argument("--workers", type=int, default=0, metavar="N",
+                        help="also run each case's search on N local workers kept for the search and on a pool started per batch")  # fmt: skip
+    parser.add_argument("--workers-budget", type=int, default=60, metavar="RUNS", help="runs of each --workers search (default 60)")
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
     args = parser.parse_args(argv)
     cases = [c for c in args.cases.split(",") if c]
@@ -548,13 +620,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     loop = sumo_loop() if args.sumo_loop else None
     if loop:
         text += sumo_loop_text(loop)
+    pools = [workers_in_new_process(c, args.workers, args.workers_budget) for c in cases] if args.workers > 0 else None
+    if pools:
+        text += workers_text(pools)
     text += (f"\n{platform.python_implementation()} {platform.python_version()}, {platform.machine()}; in-process runs, one after the other, batch {args.batch}"
              f"{' (one worker: the default)' if args.batch == 1 else ''}; "
              f"importing the optimiser libraries took {import_s:.2f} s once\n")  # fmt: skip
     sys.stdout.write(text)
     if args.json:
         Path(args.json).write_text(json.dumps({"rows": rows, "truth": {k: {x: v for x, v in t.items() if x != "bits"} for k, t in truths.items()},
-                                               "sumo_loop": loop, "import_s": import_s}, indent=2) + "\n")  # fmt: skip
+                                               "sumo_loop": loop, "workers": pools, "import_s": import_s}, indent=2) + "\n")  # fmt: skip
     return 0
 
 

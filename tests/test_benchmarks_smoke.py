@@ -92,6 +92,16 @@ def test_the_bare_libsumo_loop_does_the_steps_of_the_search_s_runs() -> None:
         "validate", "system and tree", "SUMO start+close", "SUMO steps", "adapter", "tree, collector"}  # fmt: skip
 
 
+def test_the_workers_benchmark_runs_one_search_both_ways() -> None:
+    """benchmarks.falsify --workers: the search on workers kept for it and on a pool started per batch, each in
+    a new process, is the same search (the benchmark raises otherwise), and both are timed."""
+    pytest.importorskip("optuna")
+    from benchmarks import falsify
+
+    row = falsify.workers_in_new_process("island_2d", 2, 12, rounds=1)
+    assert row["runs"] == 12 and row["kept_s"] > 0 and row["per_batch_s"] > 0
+
+
 @pytest.mark.skipif(__import__("importlib").util.find_spec("libsumo") is None and not __import__("os").environ.get("CI"),
                     reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)")  # fmt: skip
 def test_a_small_run_taken_apart(capsys) -> None:  # type: ignore[no-untyped-def]

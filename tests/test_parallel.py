@@ -134,3 +134,19 @@ def test_ctrl_c_stops_every_kept_worker() -> None:
         process(whoami, [()] * 4, ["c", "d", "e", "f"], workers=2, pool=pool, on_result=interrupt)
     assert not any(alive(p) for p in pids) and pool.pids == []
     pool.close()  # nothing left: nothing to do
+
+
+def test_a_call_that_fails_midway_leaves_no_busy_kept_worker_behind() -> None:
+    """*on_result* raising (not Ctrl-C) ends the call with workers still running its other jobs: they are
+    stopped, so no result of that call can come back as one of the next call's."""
+    def fail(outcome: Outcome) -> None:
+        raise RuntimeError("the caller's own error")
+
+    with Workers(2, _started) as pool:
+        process(whoami, [()] * 2, ["a", "b"], workers=2, pool=pool)
+        before = pool.pids
+        with pytest.raises(RuntimeError):
+            process(whoami, [()] * 4, ["c", "d", "e", "f"], workers=2, pool=pool, on_result=fail)
+        assert pool.pids == [] and not any(alive(p) for p in before)
+        after = process(whoami, [()] * 3, ["g", "h", "i"], workers=2, pool=pool)
+    assert [o.path for o in after] == ["g", "h", "i"] and all(o.code == ExitCode.OK for o in after)

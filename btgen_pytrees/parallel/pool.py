@@ -263,6 +263,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
         isolate = len(paths) > 1 or pool is not None
     own = pool is None
     kept = pool if pool is not None else Workers(workers)
+    ended = False
     try:
         if executor is not None:  # another engine (a Dask cluster): the same guarded calls
             stream = executor.map_unordered([partial(guard, job, p, *jobs_args[i]) for i, p in enumerate(paths)])
@@ -309,6 +310,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                         else:
                             slot.task = None
                         record(index, outcome)
+        ended = True
     except KeyboardInterrupt as stop:
         kept.stop()
         if progress is not None:
@@ -317,6 +319,8 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
     finally:
         if own:  # normal end: ask each worker to leave, then make sure
             kept.close()
+        elif not ended:  # a kept pool left mid-call (on_result raised): its busy workers' results must not reach the next call
+            kept.stop()
     if progress is not None:
         progress.write("\n")
     return [r for r in results if r is not None]

@@ -537,6 +537,24 @@ def test_counterexamples_reproduce_their_failure_and_margins_when_run_alone(tmp_
         assert {o.id: o.margin for o in again.oracles} == ce["margins"]
 
 
+def test_a_counterexample_whose_values_make_no_valid_case_is_written_and_run_says_why(tmp_path: pathlib.Path, capsys: Any) -> None:
+    """A run whose values make an invalid case (a negative duration) is an error, so a failure; its file
+    is written like any other's (no replay page: it cannot run), and run on it refuses it for the same
+    reason (it was exit 2 after the search, and nothing written)."""
+    data = island(variations={"a": {"from": -5, "to": 10, "step": 0.05}, "b": {"from": 0, "to": 5, "step": 0.025}})
+    data["execute"][0]["params"]["duration"] = "$a"
+    out = tmp_path / "cases"
+    target = tmp_path / "f.json"
+    assert main(["falsify", write(tmp_path, data), "--budget", "20", "--jobs", "1", "--out-dir", str(out), "--json", str(target)]) == 1
+    assert "no replay page for" in capsys.readouterr().err
+    report = json.loads(target.read_text())
+    ce = report["counterexamples"][0]
+    assert ce["verdict"] == "error" and "must not be negative" in ce["message"]
+    path = next(out.glob(f"*[[]{ce['label']}].json"))
+    assert main(["run", str(path)]) == 2
+    assert "/execute/0/params/duration: must not be negative" in capsys.readouterr().err
+
+
 def test_counterexamples_at_one_point_are_one_file(tmp_path: pathlib.Path) -> None:
     """Where the nominal point fails, every cluster's shrink ends there: the clusters' counterexamples are
     one case, written once (two writes of one file were an internal error, exit 3, and no file at all)."""

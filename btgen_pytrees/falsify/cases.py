@@ -125,5 +125,9 @@ def counterexample_files(sweep: Sweep, data: Mapping[str, Any], out_dir: str,
         except GraphvizMissing as missing:
             notes.append(f"no replay pages: {missing}")
             continue
+        except InvalidTestCase as invalid:  # the run's error: its values make no valid case (run says the same)
+            notes.append(f"no replay page for {os.path.basename(path)}: the case is invalid "
+                         f"({invalid.problems[0].render(path) if invalid.problems else 'see run'})")  # fmt: skip
+            continue
         outputs.append((os.path.splitext(path)[0] + ".html", page))
     return outputs, notes

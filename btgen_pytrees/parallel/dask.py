@@ -57,7 +57,7 @@ from ..errors import UserError
 from .shipping import Files, install
 
 __all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "TaskFailed", "scheduler_address",
-           "check_address", "run_chunk", "leave_kept", "CHUNKS_PER_WORKER", "MAX_CHUNK", "LEAVE_WAIT"]  # fmt: skip
+           "check_address", "run_chunk", "CHUNKS_PER_WORKER", "MAX_CHUNK"]  # fmt: skip
 
 CHUNKS_PER_WORKER = 8
 """Tasks per worker a sweep is split into (more: finer progress and balance; fewer: less overhead)."""
@@ -123,9 +123,10 @@ _one_run = threading.Lock()
 """Held while a task runs: one run at a time in a worker process, whatever its number of threads."""
 _entered: set[str] = set()
 """The executors (their tokens) whose ``keep`` entered this worker process (changed under :data:`_one_run`)."""
-LEAVE_WAIT = 10.0
-"""Seconds a worker waits for its running task (another client's) before it gives up leaving (the process keeps what
-it kept until it ends)."""
+_LEAVE_WAIT = 1.0
+"""Seconds a worker waits for the task it is running before it gives up leaving (a task cancelled by Ctrl-C runs on
+to its end, or another client's task: the process keeps what it kept until its next task or its end). The wait
+holds the worker's event loop (``Client.run``), so it is short."""
 
 
 def _scratch() -> str | None:
@@ -152,9 +153,9 @@ def run_chunk(chunk: Sequence[tuple[int, Callable[[], Any]]], files: Files | Non
         return [(i, call()) for i, call in chunk]
 
 
-def leave_kept(token: str, leave: Callable[[], None]) -> bool:
+def _leave_kept(token: str, leave: Callable[[], None]) -> bool:
     """In a worker process: ``leave()`` if the executor *token* entered it (between two tasks); whether it did."""
-    if not _one_run.acquire(timeout=LEAVE_WAIT):
+    if not _one_run.acquire(timeout=_LEAVE_WAIT):
         return False
     try:
         if token not in _entered:
@@ -217,7 +218,7 @@ class DaskExecutor(Executor):
             self._files = None
             try:
                 if self._keep is not None and self._client.status == "running":
-                    self._client.run(leave_kept, self._keep[0], self._leave)
+                    self._client.run(_leave_kept, self._keep[0], self._leave)
             except Exception:  # noqa: BLE001 - a worker or the scheduler gone: what it kept ends with its process
                 pass
             try:

@@ -246,6 +246,28 @@ def test_the_margins_optimised_are_the_reports(tmp_path: pathlib.Path) -> None:
         assert combine(own, groups_of(case), report["scales"]) == pytest.approx(max(scaled.values()))
 
 
+def test_an_or_group_held_by_a_criterion_without_a_distance_tells_no_negative_objective(tmp_path: pathlib.Path) -> None:
+    """In an || group a criterion left out of the objective - a truth value, or one without a gradient -
+    that holds makes the group hold: the group is left out too, as its infinite margin is. The
+    objective was the other criteria's maximum alone, negative on runs that pass."""
+    assert combine({"F1": -0.5, "F2": math.inf}, {"others": ("||", ["F1", "F2"])}, {}) is None
+    assert combine({"F1": -0.5, "F2": 0.0}, {"others": ("||", ["F1", "F2"])}, {}, graded=["F1"]) is None
+    assert combine({"F1": -0.5, "F2": -math.inf}, {"others": ("||", ["F1", "F2"])}, {}) == -0.5  # F2 violated: F1 decides
+    assert combine({"F1": -0.5, "F2": 0.0, "R1": 2.0}, {"record": ("&&", ["R1"]), "others": ("||", ["F1", "F2"])}, {},
+                   graded=["F1", "R1"]) == 2.0  # fmt: skip
+    data = island(variations={"a": {"from": 5.5, "to": 6.5, "step": 0.05}, "b": {"from": 2, "to": 3, "step": 0.025}, "c": [True, False]},
+                  parameters={"a": 6, "b": 2.5, "c": False}, signals={"x": 0, "y": 0, "flag": False},
+                  oracle={"relation": {"others": "||"}, "criteria": [
+                      {"id": "F1", "type": "final", "expect": "(x - 6) * (x - 6) / 4 + (y - 2.5) * (y - 2.5) >= 0.08"},
+                      {"id": "F2", "type": "final", "expect": "flag"}]})  # fmt: skip
+    data["execute"].append({"id": "B3", "kind": "behavior", "action": "set", "params": {"signal": "flag", "value": "$c"}})
+    main(["falsify", write(tmp_path, data), "--budget", "24", "--jobs", "1", "--json", str(tmp_path / "f.json")])
+    runs = json.loads((tmp_path / "f.json").read_text())["runs"]
+    held = [r for r in runs if r["verdict"] == "pass" and r["margins"]["F1"] < 0]  # inside the island, flag set
+    assert held and all(r["objective"] is None for r in held)
+    assert all(r["objective"] <= 0 for r in runs if r["verdict"] != "pass")
+
+
 # -- the gp method --------------------------------------------------------------------------------
 
 

@@ -44,7 +44,9 @@ def combine(margins: Mapping[str, float | None], groups: Mapping[str, tuple[str,
 
     Criteria without a margin or with an infinite one (a truth value: no distance to measure) are left
     out, and when *graded* is given the criteria not in it whose margin is not negative (``None`` when
-    nothing is left). Called once per run: one pass over the ids, no call per criterion.
+    nothing is left). An ``||`` group in which such a left-out criterion holds is left out too: it holds,
+    by a margin the objective does not measure (its maximum), so its other criteria's margins, negative
+    or not, say nothing of the run. Called once per run: one pass over the ids, no call per criterion.
 
     >>> combine({"R1": 2.0, "F1": -1.0, "F2": 3.0}, {"record": ("&&", ["R1"]), "others": ("||", ["F1", "F2"])}, {"R1": 2.0})
     1.0
@@ -52,8 +54,19 @@ def combine(margins: Mapping[str, float | None], groups: Mapping[str, tuple[str,
     totals = []
     isfinite = math.isfinite
     for relation, ids in groups.values():
-        values = [m / scales.get(i, 1.0) for i in ids
-                  if (m := margins.get(i)) is not None and isfinite(m) and (graded is None or i in graded or m < 0)]  # fmt: skip
-        if values:
-            totals.append(max(values) if relation == "||" else min(values))
+        values = []
+        held = False  # a criterion left out holds: an || group holds by it, with no distance to tell
+        for i in ids:
+            m = margins.get(i)
+            if m is None or m != m:
+                continue
+            if isfinite(m) and (graded is None or i in graded or m < 0):
+                values.append(m / scales.get(i, 1.0))
+            elif m >= 0:
+                held = True
+        if relation == "||":
+            if values and not held:
+                totals.append(max(values))
+        elif values:
+            totals.append(min(values))
     return min(totals) if totals else None

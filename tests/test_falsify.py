@@ -161,6 +161,21 @@ def test_the_json_on_stdout_is_the_document_alone_and_the_table_goes_to_stderr(t
     assert "FALSIFIED" in done.stderr and "uniform random" in done.stderr
 
 
+def test_a_box_of_many_parameters_is_searched_whatever_its_grid_would_count(tmp_path: pathlib.Path) -> None:
+    """The box is searched, not enumerated: ten more parameters at a step of 0.001 (a grid of about 1e36
+    points) were refused as too many variations, naming a --max-variations that falsify does not have."""
+    data = island()
+    for k in range(10):
+        data["parameters"][f"p{k}"] = 0.5
+        data["variations"][f"p{k}"] = {"from": 0, "to": 1, "step": 0.001}
+    data["oracle"]["criteria"].append({"id": "F2", "type": "final", "expect": " + ".join(f"$p{k}" for k in range(10)) + " <= 9.5"})
+    target = tmp_path / "f.json"
+    assert main(["falsify", write(tmp_path, data), "--budget", "20", "--stop", "first", "--jobs", "1", "--json", str(target)]) == 1
+    report = json.loads(target.read_text())
+    assert report["runs"][1]["verdict"] == "fail"  # the gp's start: the box's high corner second
+    assert report["baselines"]["grid"]["points"] == 201 * 201 * 1001**10
+
+
 def test_a_case_without_variations_is_exit_2(tmp_path: pathlib.Path, capsys: Any) -> None:
     assert main(["falsify", str(ROOT / "examples" / "fig1.json")]) == 2
     assert "/variations" in capsys.readouterr().err

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import math
 import signal
 import sys
 from typing import Any
@@ -37,7 +38,8 @@ from .sweep import add_executor_options, make_executor, run_options
 
 __all__ = ["add_parser", "cmd_falsify"]
 
-_MAX_LIMIT = 10**18
+_NO_LIMIT = math.inf
+"""The box is searched, not enumerated: however many points its grid would count, no variation limit."""
 
 
 def add_parser(sub: Any, parents: Parents) -> None:
@@ -56,7 +58,7 @@ def add_parser(sub: Any, parents: Parents) -> None:
 
 
 def load(args: argparse.Namespace) -> Sweep:
-    sweep = load_sweep(args.file, registry=registry(args), max_variations=_MAX_LIMIT, check_all=False)
+    sweep = load_sweep(args.file, registry=registry(args), max_variations=_NO_LIMIT, check_all=False)
     if not sweep.variations.axes:
         raise InvalidTestCase([Problem(("variations",), "falsify searches the box of a 'variations' block; this case has none", "parameter")], sweep.source)
     return sweep

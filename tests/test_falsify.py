@@ -516,6 +516,21 @@ def test_a_points_values_are_those_of_its_snapped_point() -> None:
         assert values == expected and all(type(values[k]) is type(expected[k]) for k in values)
 
 
+def test_uniform_random_takes_its_scales_from_its_first_runs(tmp_path: pathlib.Path) -> None:
+    """``random`` has no start stage: its scales and graded criteria come from its first runs, as many as
+    the start would have had. They came from its start-phase runs - none - so every scale was 1, no
+    criterion was graded, every passing run's objective was null and a note said the criteria had no
+    gradient."""
+    target = tmp_path / "f.json"
+    assert main(["falsify", str(ISLAND), "--method", "random", "--budget", "24", "--seed", "3", "--jobs", "1", "--json", str(target)]) == 0
+    report = json.loads(target.read_text())
+    first = [r["margins"]["F1"] for r in report["runs"][: report["start"]]]
+    mean = sum(first) / len(first)
+    assert report["graded"] == ["F1"] and report["notes"] == []
+    assert report["scales"]["F1"] == pytest.approx(math.sqrt(sum((m - mean) ** 2 for m in first) / len(first)))
+    assert all(r["objective"] == pytest.approx(r["margins"]["F1"] / report["scales"]["F1"]) for r in report["runs"])
+
+
 def test_criteria_without_a_gradient_leave_the_search_space_filling(tmp_path: pathlib.Path) -> None:
     data = island()
     # a comparison of booleans: its margin is 0 wherever the run passes (like a collision count)

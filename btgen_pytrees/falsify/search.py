@@ -215,10 +215,12 @@ class Search:
 
     def _fix_scales(self) -> None:
         """Each criterion's scale and whether it is graded, from the start's runs (a failure met during the
-        start has been shrunk and bounded by now: those runs crowd around it and say nothing of the box)."""
+        start has been shrunk and bounded by now: those runs crowd around it and say nothing of the box):
+        the first :attr:`start` runs the sampler asked for - ``random``, without a start stage, its first
+        uniform draws."""
         ids = [i for _, ids in self.groups.values() for i in ids]
         graded = []
-        start = [r for r in self.runs if r.phase == "start"]
+        start = self._sampled()[: self.start]
         for i in ids:
             seen = [m for r in start if (m := (r.row.get("margins") or {}).get(i)) is not None and math.isfinite(m)]
             passing = {round(m, 12) for r in start if not r.failed

@@ -457,3 +457,67 @@ def test_a_file_that_cannot_be_read_says_the_same_on_the_cluster(cluster: Any, t
     assert f"{suite}/b_fifo.json: /: not a regular file (a pipe or socket)" in dask.stderr
     assert f"{suite}/c_big.json: /: file is 16777217 bytes; the limit is 16777216" in dask.stderr
     assert local.stdout == dask.stdout and sorted(local.stderr.splitlines()) == sorted(dask.stderr.splitlines())
+
+
+KILLING_PLUGIN = '''
+import os
+import py_trees
+from py_trees.common import Status
+
+
+class Leaf(py_trees.behaviour.Behaviour):
+    def __init__(self, entry, env):
+        super().__init__(name=entry.name)
+        self.when = entry.params.get("when")
+
+    def update(self):
+        if self.when == 3 or self.when > 190:
+            os._exit(0)  # kills the Dask worker process, as a crashing simulator would
+        if self.when == 5:
+            raise SystemExit(0)
+        return Status.SUCCESS
+
+
+def register(registry):
+    registry.register("maybe_die", lambda entry, env: Leaf(entry, env), kind="behavior")
+'''
+
+
+def test_user_code_that_kills_every_worker_costs_its_own_runs_only(tmp_path: pathlib.Path) -> None:
+    """A plugin leaf that kills its worker process kills the next one too when the task is tried again, until the
+    scheduler gives up on it (KilledWorker) - and with every worker that held them, the files shipped for the run
+    (the plugin file) are lost: the tasks that needed them were cancelled, and the sweep ended with an internal
+    error (FutureCancelledError), no report written; a search's next batch could not ship its files while the
+    workers were restarting (TimeoutError). Now the cancelled tasks run again with the files in the task, and a
+    search's next batch waits for a worker: the report is complete and only the killing chunk is an error."""
+    from distributed import Client, LocalCluster
+
+    plugin = tmp_path / "killing_plugin.py"
+    plugin.write_text(KILLING_PLUGIN)
+    data = case(entry("A", action="maybe_die", when="$w"), criteria=[crit("F", "final", "true")])
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.CRITICAL) as own, Client(own.scheduler_address, set_as_default=False) as client:  # fmt: skip
+        sweep = tmp_path / "s.json"
+        sweep.write_text(json.dumps({**data, "parameters": {"w": 0}, "variations": {"w": list(range(1, 41))}}))
+        result = cli("run", str(sweep), "--plugin", str(plugin), "--executor", "dask", "--scheduler",
+                     own.scheduler_address, "--json", str(tmp_path / "r.json"))  # fmt: skip
+        assert result.returncode == 3, result.stderr  # the killed chunk's runs are internal errors (not run)
+        rows = json.loads((tmp_path / "r.json").read_text())["rows"]
+        assert [r["label"] for r in rows] == [f"w={k}" for k in range(1, 41)]
+        verdicts = {r["label"]: r["verdict"] for r in rows}
+        # chunks of 3 variations (40 over 2 workers x 8): w=3 kills every worker that runs w=1..3
+        assert [verdicts[f"w={k}"] for k in (1, 2, 3)] == ["error"] * 3 and "KilledWorker" in rows[2]["message"]
+        assert verdicts["w=5"] == "error" and "SystemExit" in rows[4]["message"]
+        assert list(verdicts.values()).count("pass") == 36
+        client.wait_for_workers(2, timeout=60)
+        search = tmp_path / "f.json"
+        search.write_text(json.dumps({**data, "parameters": {"w": 1}, "variations": {"w": {"from": 0, "to": 200, "step": 0.5}},
+                                      "search": {"method": "random", "budget": 12, "batch": 4}}))  # fmt: skip
+        result = cli("falsify", str(search), "--plugin", str(plugin), "--executor", "dask", "--scheduler",
+                     own.scheduler_address, "--json", str(tmp_path / "f.report.json"))  # fmt: skip
+        assert result.returncode == 1, result.stderr
+        runs = json.loads((tmp_path / "f.report.json").read_text())["runs"]
+        assert len(runs) == 12
+        killed = [r for r in runs if r["parameters"]["w"] > 190]
+        assert killed and all(r["verdict"] == "error" and "KilledWorker" in r["message"] for r in killed)
+        assert all(r["verdict"] == "pass" for r in runs if r["parameters"]["w"] <= 190)

@@ -50,7 +50,9 @@ import math
 import os
 import re
 import threading
+import time
 import uuid
+from concurrent.futures import CancelledError
 from typing import Any, Callable, Iterator, Sequence
 
 from ..errors import UserError
@@ -64,6 +66,11 @@ CHUNKS_PER_WORKER = 8
 
 MAX_CHUNK = 64
 """Most calls in one task (a retried task repeats at most this many runs)."""
+
+RESUBMIT = 2
+"""Times a task the cluster cancelled (not failed) is sent again, with the shipped files in the task itself: the
+files it needed (:meth:`DaskExecutor.ship`) were lost with every worker that held them, or its result with its
+worker. A task that kills its worker every time still ends as ``KilledWorker``."""
 
 HINT = "--executor dask needs dask and distributed: pip install 'btgen_pytrees[dask]'"
 
@@ -187,6 +194,7 @@ class DaskExecutor(Executor):
         self.timeout = timeout
         self._client: Any = None
         self._files: Any = None  # the future of the shipped Files, on the cluster
+        self._shipped: Files | None = None  # the same Files here, to send again when the cluster lost them
         self.lost: str | None = None
         """Set when the scheduler was lost during :meth:`map_unordered`: what happened, in words."""
         self._keep = (uuid.uuid4().hex, keep[0]) if keep is not None else None
@@ -194,12 +202,28 @@ class DaskExecutor(Executor):
 
     def ship(self, files: Files) -> None:
         """Send *files* to every worker once (workers that join later fetch them from the others);
-        every task of :meth:`map_unordered` then installs them before it runs."""
+        every task of :meth:`map_unordered` then installs them before it runs. The same files shipped
+        before (a search ships its files for every batch) are not sent again while the cluster holds them.
+
+        Every worker may be restarting when this is called (a run's user code killed each of them, and
+        their nannies start them again): the files are sent once one is back, within ``max(timeout, 30)`` s."""
         self.connect()
         if not files.items:
-            self._files = None
+            self._files = self._shipped = None
             return
-        self._files = self._client.scatter(files, broadcast=True, hash=False)
+        if self._files is not None and self._shipped is not None and self._shipped.digest == files.digest \
+                and self._files.status == "finished":
+            return
+        self._shipped = files
+        deadline = time.monotonic() + max(self.timeout, 30.0)
+        while True:
+            try:
+                self._files = self._client.scatter(files, broadcast=True, hash=False)
+                return
+            except (TimeoutError, OSError) as exc:  # "No valid workers found": none is running yet
+                if time.monotonic() > deadline or self._client.status != "running":
+                    raise DaskUnavailable(f"cannot send the runs' files to the Dask workers at {self.address}: {exc}") from None
+                time.sleep(0.5)
 
     def connect(self) -> None:
         """Reach the scheduler now (a usage problem is better found before anything runs)."""
@@ -215,7 +239,7 @@ class DaskExecutor(Executor):
     def close(self) -> None:
         """Disconnect (the cluster itself keeps running); the workers this executor's ``keep`` entered leave it."""
         if self._client is not None:
-            self._files = None
+            self._files = self._shipped = None
             try:
                 if self._keep is not None and self._client.status == "running":
                     self._client.run(_leave_kept, self._keep[0], self._leave)
@@ -257,18 +281,35 @@ class DaskExecutor(Executor):
             futures = [client.submit(run_chunk, chunk, self._files, self._keep, key=f"btgen-{token}-{j}", pure=False)
                        for j, chunk in enumerate(chunks)]  # fmt: skip
             owner = {f.key: chunk for f, chunk in zip(futures, chunks)}
+            again = dict.fromkeys(owner, 0)  # how many times each chunk was sent again
             finished: set[int] = set()
             lost = False
             try:
-                for future in as_completed(futures, loop=client.loop):
+                stream = as_completed(futures, loop=client.loop)
+                for future in stream:
+                    results = None
                     if future.status == "finished":
-                        results = future.result()  # fetched from a worker: the connection may break here
+                        try:
+                            results = future.result()  # fetched from a worker: the connection may break here
+                        except CancelledError:  # its result was on a worker that died, and cannot be made again
+                            results = None
+                    if results is not None:
                         for i, result in results:
                             finished.add(i)
                             yield i, result
                     elif client.status != "running":  # the scheduler is gone: no task of this run will finish now
                         lost = True
                         break
+                    elif future.status != "error" and again[future.key] < RESUBMIT:
+                        # cancelled by the cluster, not failed: the shipped files it needs were lost with the
+                        # workers that held them (a run's user code killed them all, or the result with its
+                        # worker); sent again carrying the files themselves, so no later loss can cancel it
+                        chunk = owner[future.key]
+                        retry = client.submit(run_chunk, chunk, self._shipped, self._keep, pure=False,
+                                              key=f"{future.key}-again{again[future.key] + 1}")  # fmt: skip
+                        owner[retry.key], again[retry.key] = chunk, again[future.key] + 1
+                        futures.append(retry)
+                        stream.add(retry)
                     else:  # the scheduler gave up on it (KilledWorker) or it was lost: say so per call
                         why = f"run on the Dask cluster failed: {_failure(future)}"
                         for i, _ in owner[future.key]:

@@ -404,6 +404,31 @@ def _island_search(name: str, **settings: Any) -> Any:
     return Search(Space.of(sweep.variations), sweep.defaults, Settings(**settings), evaluate, {"others": ("&&", ["F1"])})
 
 
+def test_a_search_stopped_by_sigterm_in_its_own_code_says_sigterm() -> None:
+    """The CLI's SIGTERM handler raises its Interrupt wherever the search is - also between two batches'
+    runs, in the search's own code - and the search keeps which signal it was (the CLI exits 143 with it;
+    it said SIGINT and exited 130). A plain KeyboardInterrupt there names no signal."""
+    import signal
+
+    from btgen_pytrees.errors import Interrupt
+
+    for raised, expected in ((Interrupt(signal.SIGTERM), signal.SIGTERM), (KeyboardInterrupt(), None)):
+        search = _island_search("island_2d", method="random", seed=0, budget=40, batch=4)
+        runs = search.evaluate
+        calls = []
+
+        def evaluate(points: list[dict[str, Any]], runs: Any = runs, calls: list[int] = calls,
+                     raised: BaseException = raised) -> list[dict[str, Any]]:  # fmt: skip
+            calls.append(len(points))
+            if len(calls) == 3:  # the signal arrives as the third batch is asked for
+                raise raised
+            return runs(points)
+
+        search.evaluate = evaluate
+        search.run()
+        assert search.interrupted and search.signum == expected and len(search.runs) == 8
+
+
 @pytest.mark.filterwarnings("ignore:The balance properties")
 def test_a_sobol_search_runs_scipys_scrambled_sobol_points() -> None:
     """The ``sobol`` method runs the points of SciPy's ``qmc.Sobol(d, scramble=True, seed=seed)`` in its
@@ -805,14 +830,19 @@ def _alive(pid: int) -> bool:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc and a pseudo-terminal")
-@pytest.mark.parametrize("jobs, group", [("1", True), ("2", True), ("2", False)])
-def test_ctrl_c_keeps_what_was_found(tmp_path: pathlib.Path, jobs: str, group: bool) -> None:
+@pytest.mark.parametrize("jobs, group, stop", [("1", True, "SIGINT"), ("2", True, "SIGINT"), ("2", False, "SIGINT"),
+                                               ("1", False, "SIGTERM"), ("2", False, "SIGTERM")])  # fmt: skip
+def test_ctrl_c_keeps_what_was_found(tmp_path: pathlib.Path, jobs: str, group: bool, stop: str) -> None:
     """Ctrl-C in a terminal (SIGINT to the whole process group, or to falsify alone) once the progress
-    line shows runs: exit 130, the --json report holds the runs so far and parses, no worker is left."""
+    line shows runs: exit 130, the --json report holds the runs so far and parses, no worker is left.
+    SIGTERM to falsify: the same with 143 - it was 130 and 'interrupted by SIGINT' when the signal came
+    while the search chose its next points (most of the time: the runs here take milliseconds)."""
     import pty
     import select
     import signal
     import time
+
+    signum = signal.Signals[stop]
 
     path = write(tmp_path, island(search={"budget": 100000, "stop": "all"}))
     report = tmp_path / "found.json"
@@ -833,9 +863,9 @@ def test_ctrl_c_keeps_what_was_found(tmp_path: pathlib.Path, jobs: str, group: b
         assert shown >= 24, seen
         workers |= _descendants(process.pid)
         if group:
-            os.killpg(process.pid, signal.SIGINT)
+            os.killpg(process.pid, signum)
         else:
-            process.send_signal(signal.SIGINT)
+            process.send_signal(signum)
         deadline = time.monotonic() + 60
         while process.poll() is None and time.monotonic() < deadline:  # keep reading: a full terminal would block it
             if select.select([terminal], [], [], 0.2)[0]:
@@ -857,8 +887,9 @@ def test_ctrl_c_keeps_what_was_found(tmp_path: pathlib.Path, jobs: str, group: b
                 break
             seen += chunk.decode(errors="replace")
         os.close(terminal)
-    assert process.returncode == 130, seen
-    assert "interrupted by SIGINT" in seen and "Traceback" not in seen
+    assert process.returncode == 128 + signum, seen
+    assert f"interrupted by {stop}" in seen and (stop == "SIGINT" or "interrupted by SIGINT" not in seen)
+    assert "Traceback" not in seen
     data = json.loads(report.read_text())
     assert data["interrupted"] is True
     assert len(data["runs"]) >= shown and [r["index"] for r in data["runs"]] == list(range(len(data["runs"])))

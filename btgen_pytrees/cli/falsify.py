@@ -128,8 +128,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
             executor.close()
         if stream is not None:
             stream.write("\n")
-    if search.interrupted and signum is None:
-        signum = signal.SIGINT
+    if search.interrupted and signum is None:  # stopped in the search's own code, between two batches' runs
+        signum = search.signum if search.signum is not None else signal.SIGINT
     data = report_data(search, sweep.name, sweep.source)
     outputs: list[tuple[str, str | bytes]] = []
     if args.json:

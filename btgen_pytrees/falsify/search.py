@@ -149,6 +149,8 @@ class Search:
         self.groups = {g: (relation, list(ids)) for g, (relation, ids) in groups.items()}
         self.notes: list[str] = []
         self.interrupted = False
+        self.signum: int | None = None
+        """The signal that interrupted the search in its own code (the CLI's SIGINT or SIGTERM), if it says."""
         self.first_failure: int | None = None
 
     # -- the loop -----------------------------------------------------------------------------------
@@ -157,8 +159,9 @@ class Search:
         """Search until the budget ends (or the stop rule says so); Ctrl-C keeps what was found."""
         try:
             self._loop()
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as stop:  # the CLI's SIGTERM arrives as one too: which signal is kept
             self.interrupted = True
+            self.signum = getattr(stop, "signum", None)
         return self
 
     @property

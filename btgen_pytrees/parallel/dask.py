@@ -11,9 +11,12 @@ What the cluster gets and gives back:
 * **Data, not paths.** Each task carries its case *data* (a sweep's concrete
   documents, a batch's file contents - see docs/scaling.md); the files the runs
   read besides (a SUMO configuration, its network and routes, ``--plugin``
-  files) are sent once to every worker (:meth:`DaskExecutor.ship`,
-  :mod:`.shipping`). So a worker needs btgen_pytrees (and any plugin
-  *modules*) installed, and neither the client's files nor its working directory.
+  files) are sent once, as a Dask worker plugin that writes them in each worker
+  when it starts - a worker restarted later included (:meth:`DaskExecutor.ship`,
+  :mod:`.shipping`). A task therefore depends on no data the cluster can lose:
+  a result lost with its worker is simply computed again. So a worker needs
+  btgen_pytrees (and any plugin *modules*) installed, and neither the client's
+  files nor its working directory.
 * **One run at a time per worker process.** A run ticks a py_trees tree and may
   drive a simulator that allows one simulation per process (libsumo); a worker
   process with several threads therefore runs its tasks one after the other
@@ -26,9 +29,13 @@ What the cluster gets and gives back:
 * **Streaming, exactly once.** Results are yielded as chunks finish, each call's
   result once, tagged with its index - a chunk whose worker died is run again
   elsewhere by the scheduler (up to ``distributed.scheduler.allowed-failures``
-  times) and still completes only once. A chunk that keeps killing workers comes
-  back as a :class:`TaskFailed` for each of its calls (``process`` records
-  it as an internal error, code 3), so the final report is complete either way.
+  times) and still completes only once. The scheduler gives up on (``KilledWorker``)
+  every task that was on a worker each time it died, the task that killed it and
+  those queued beside it alike; so each call of such a chunk is run again *alone*
+  (nothing else on the cluster), one after the other, and only a call that still
+  kills its workers comes back as a :class:`TaskFailed` (``process`` records it
+  as an internal error, code 3): the report is complete, and only the killing
+  run is an error.
 * **Kept between tasks.** An executor made with ``keep=(enter, leave)`` calls
   ``enter()`` in each worker process before the first of its tasks there, and
   ``leave()`` in each such process when it closes (a sweep and a search pass
@@ -50,7 +57,6 @@ import math
 import os
 import re
 import threading
-import time
 import uuid
 from concurrent.futures import CancelledError
 from typing import Any, Callable, Iterator, Sequence
@@ -68,9 +74,8 @@ MAX_CHUNK = 64
 """Most calls in one task (a retried task repeats at most this many runs)."""
 
 RESUBMIT = 2
-"""Times a task the cluster cancelled (not failed) is sent again, with the shipped files in the task itself: the
-files it needed (:meth:`DaskExecutor.ship`) were lost with every worker that held them, or its result with its
-worker. A task that kills its worker every time still ends as ``KilledWorker``."""
+"""Times a task is sent again when the cluster cancelled it rather than failed it (its result was lost with
+a worker as the client fetched it, and Dask then cancels the task instead of computing it again)."""
 
 HINT = "--executor dask needs dask and distributed: pip install 'btgen_pytrees[dask]'"
 
@@ -136,23 +141,27 @@ to its end, or another client's task: the process keeps what it kept until its n
 holds the worker's event loop (``Client.run``), so it is short."""
 
 
-def _scratch() -> str | None:
-    """The Dask worker's own directory (removed with the worker), or None outside a worker."""
-    try:
-        from distributed import get_worker
+def _files_plugin(files: Files) -> Any:
+    """A Dask worker plugin that installs *files* in each worker's own directory (removed with the worker)
+    as the worker starts: the scheduler keeps it and gives it to every worker that joins later, a worker
+    restarted after a run killed it included, before that worker gets a task."""
+    from distributed import WorkerPlugin
 
-        return str(get_worker().local_directory)
-    except (ImportError, ValueError):
-        return None
+    class ShippedFiles(WorkerPlugin):  # defined here: distributed is imported only when it is used
+        def __init__(self, files: Files):
+            self.files = files
+
+        def setup(self, worker: Any) -> None:
+            install(self.files, str(worker.local_directory))
+
+    return ShippedFiles(files)
 
 
-def run_chunk(chunk: Sequence[tuple[int, Callable[[], Any]]], files: Files | None = None,
+def run_chunk(chunk: Sequence[tuple[int, Callable[[], Any]]],
               keep: tuple[str, Callable[[], None]] | None = None) -> list[tuple[int, Any]]:  # fmt: skip
     """The task a worker runs: every call of *chunk*, in order, with its index, one task at a time
-    per process; *files* (sent once per worker) are installed first; *keep* (an executor's token and
-    its ``enter``) is entered first if this process has not entered it yet."""
-    if files is not None:
-        install(files, _scratch())
+    per process; *keep* (an executor's token and its ``enter``) is entered first if this process
+    has not entered it yet."""
     with _one_run:
         if keep is not None and keep[0] not in _entered:
             keep[1]()
@@ -193,37 +202,32 @@ class DaskExecutor(Executor):
         self.chunk = chunk
         self.timeout = timeout
         self._client: Any = None
-        self._files: Any = None  # the future of the shipped Files, on the cluster
-        self._shipped: Files | None = None  # the same Files here, to send again when the cluster lost them
+        self._token = uuid.uuid4().hex
+        self._shipped: tuple[str, str] | None = None  # (plugin name, digest) of the files the workers install
         self.lost: str | None = None
         """Set when the scheduler was lost during :meth:`map_unordered`: what happened, in words."""
-        self._keep = (uuid.uuid4().hex, keep[0]) if keep is not None else None
+        self._keep = (self._token, keep[0]) if keep is not None else None
         self._leave = keep[1] if keep is not None else None
 
     def ship(self, files: Files) -> None:
-        """Send *files* to every worker once (workers that join later fetch them from the others);
-        every task of :meth:`map_unordered` then installs them before it runs. The same files shipped
-        before (a search ships its files for every batch) are not sent again while the cluster holds them.
-
-        Every worker may be restarting when this is called (a run's user code killed each of them, and
-        their nannies start them again): the files are sent once one is back, within ``max(timeout, 30)`` s."""
+        """Have every worker install *files* - those running now and any that starts later, a worker
+        restarted after a run killed it included - before it runs a task of :meth:`map_unordered`
+        (a Dask worker plugin, held by the scheduler until :meth:`close`). The same files shipped
+        before (a search ships its files for every batch) are not sent again."""
         self.connect()
-        if not files.items:
-            self._files = self._shipped = None
+        if self._shipped is not None and self._shipped[1] == files.digest:
             return
-        if self._files is not None and self._shipped is not None and self._shipped.digest == files.digest \
-                and self._files.status == "finished":
-            return
-        self._shipped = files
-        deadline = time.monotonic() + max(self.timeout, 30.0)
-        while True:
-            try:
-                self._files = self._client.scatter(files, broadcast=True, hash=False)
-                return
-            except (TimeoutError, OSError) as exc:  # "No valid workers found": none is running yet
-                if time.monotonic() > deadline or self._client.status != "running":
-                    raise DaskUnavailable(f"cannot send the runs' files to the Dask workers at {self.address}: {exc}") from None
-                time.sleep(0.5)
+        self._unship()
+        if files.items:
+            name = f"btgen-files-{self._token[:12]}-{files.digest[:12]}"
+            self._client.register_plugin(_files_plugin(files), name=name)
+            self._shipped = (name, files.digest)
+
+    def _unship(self) -> None:
+        """Let the scheduler forget the files of :meth:`ship` (the workers keep their copies until they end)."""
+        if self._shipped is not None:
+            name, self._shipped = self._shipped[0], None
+            self._client.unregister_worker_plugin(name)
 
     def connect(self) -> None:
         """Reach the scheduler now (a usage problem is better found before anything runs)."""
@@ -239,8 +243,9 @@ class DaskExecutor(Executor):
     def close(self) -> None:
         """Disconnect (the cluster itself keeps running); the workers this executor's ``keep`` entered leave it."""
         if self._client is not None:
-            self._files = self._shipped = None
             try:
+                if self._client.status == "running":
+                    self._unship()
                 if self._keep is not None and self._client.status == "running":
                     self._client.run(_leave_kept, self._keep[0], self._leave)
             except Exception:  # noqa: BLE001 - a worker or the scheduler gone: what it kept ends with its process
@@ -265,59 +270,73 @@ class DaskExecutor(Executor):
         return max(1, len(self._client.scheduler_info().get("workers", {})))
 
     def map_unordered(self, calls: Sequence[Callable[[], Any]]) -> Iterator[tuple[int, Any]]:
-        from distributed import as_completed
+        from distributed import KilledWorker, as_completed
 
         if not calls:
             return
         self.connect()
         client = self._client
         futures: list[Any] = []
+        owner: dict[str, list[tuple[int, Callable[[], Any]]]] = {}  # each task's calls
+        again: dict[str, int] = {}  # how many times each task was sent again
+        alone: set[str] = set()  # the tasks that run one call with nothing else on the cluster
+        suspects: list[tuple[int, Callable[[], Any]]] = []  # calls of tasks the cluster gave up on
+        finished: set[int] = set()
+
+        def submit(chunk: list[tuple[int, Callable[[], Any]]], key: str) -> Any:
+            future = client.submit(run_chunk, chunk, self._keep, key=key, pure=False)
+            owner[key], again[key] = chunk, 0
+            futures.append(future)
+            return future
+
+        def drain(stream: Any) -> Iterator[tuple[int, Any]]:
+            """Yield the results of the tasks in *stream* as they complete; raise _Lost when the scheduler is gone."""
+            for future in stream:
+                results = None
+                if future.status == "finished":
+                    try:
+                        results = future.result()  # fetched from a worker: the connection may break here
+                    except CancelledError:  # its result was lost with its worker as it was fetched
+                        results = None
+                if results is not None:
+                    for i, result in results:
+                        finished.add(i)
+                        yield i, result
+                elif client.status != "running":  # the scheduler is gone: no task of this run will finish now
+                    raise _Lost
+                elif future.status != "error" and again[future.key] < RESUBMIT:
+                    # cancelled, not failed: its result was lost with a worker that a run killed, and Dask
+                    # cancelled the task rather than compute it again - so it is sent again
+                    retry = submit(owner[future.key], f"{future.key}-again{again[future.key] + 1}")
+                    again[retry.key] = again[future.key] + 1
+                    if future.key in alone:
+                        alone.add(retry.key)
+                    stream.add(retry)
+                elif future.key not in alone and isinstance(_exception(future), KilledWorker):
+                    # the scheduler gave up on it because workers died while it was there - but it may only
+                    # have waited beside the task that killed them (queued on the same worker, or on its
+                    # other thread): each of its calls runs again alone, below, to tell which one kills
+                    suspects.extend(owner[future.key])
+                else:  # it failed alone (it kills its workers itself) or was cancelled: say so per call
+                    why = f"run on the Dask cluster failed: {_failure(future)}"
+                    for i, _ in owner[future.key]:
+                        finished.add(i)
+                        yield i, TaskFailed(why)
+
         try:
             workers = self.workers()
             size = self.chunk or max(1, min(MAX_CHUNK, math.ceil(len(calls) / (workers * CHUNKS_PER_WORKER))))
             pairs = list(enumerate(calls))
-            chunks = [pairs[start:start + size] for start in range(0, len(pairs), size)]
             token = uuid.uuid4().hex[:12]
-            futures = [client.submit(run_chunk, chunk, self._files, self._keep, key=f"btgen-{token}-{j}", pure=False)
-                       for j, chunk in enumerate(chunks)]  # fmt: skip
-            owner = {f.key: chunk for f, chunk in zip(futures, chunks)}
-            again = dict.fromkeys(owner, 0)  # how many times each chunk was sent again
-            finished: set[int] = set()
-            lost = False
+            first = [submit(pairs[start:start + size], f"btgen-{token}-{j}")
+                     for j, start in enumerate(range(0, len(pairs), size))]  # fmt: skip
             try:
-                stream = as_completed(futures, loop=client.loop)
-                for future in stream:
-                    results = None
-                    if future.status == "finished":
-                        try:
-                            results = future.result()  # fetched from a worker: the connection may break here
-                        except CancelledError:  # its result was on a worker that died, and cannot be made again
-                            results = None
-                    if results is not None:
-                        for i, result in results:
-                            finished.add(i)
-                            yield i, result
-                    elif client.status != "running":  # the scheduler is gone: no task of this run will finish now
-                        lost = True
-                        break
-                    elif future.status != "error" and again[future.key] < RESUBMIT:
-                        # cancelled by the cluster, not failed: the shipped files it needs were lost with the
-                        # workers that held them (a run's user code killed them all, or the result with its
-                        # worker); sent again carrying the files themselves, so no later loss can cancel it
-                        chunk = owner[future.key]
-                        retry = client.submit(run_chunk, chunk, self._shipped, self._keep, pure=False,
-                                              key=f"{future.key}-again{again[future.key] + 1}")  # fmt: skip
-                        owner[retry.key], again[retry.key] = chunk, again[future.key] + 1
-                        futures.append(retry)
-                        stream.add(retry)
-                    else:  # the scheduler gave up on it (KilledWorker) or it was lost: say so per call
-                        why = f"run on the Dask cluster failed: {_failure(future)}"
-                        for i, _ in owner[future.key]:
-                            finished.add(i)
-                            yield i, TaskFailed(why)
-            except OSError:  # CommClosedError, a refused connection: the scheduler (or this link to it) is gone
-                lost = True
-            if lost:
+                yield from drain(as_completed(first, loop=client.loop))
+                for i, call in sorted(suspects, key=lambda pair: pair[0]):  # one at a time: no bystander
+                    solo = submit([(i, call)], f"btgen-{token}-alone{i}")
+                    alone.add(solo.key)
+                    yield from drain(as_completed([solo], loop=client.loop))
+            except (_Lost, OSError):  # OSError: CommClosedError, a refused connection - the scheduler is gone
                 self.lost = (f"the connection to the Dask scheduler at {self.address} was lost after "
                              f"{len(finished)} of {len(calls)} runs had finished")  # fmt: skip
                 why = f"not run: the connection to the Dask scheduler at {self.address} was lost"
@@ -333,12 +352,21 @@ class DaskExecutor(Executor):
                     pass
 
 
+class _Lost(Exception):
+    """The scheduler is gone: no task of the current call will finish now."""
+
+
+def _exception(future: Any) -> BaseException | None:
+    """The exception *future* ended with, or the one met asking for it (cancelled, disconnected)."""
+    try:
+        return future.exception(timeout=5)
+    except Exception as problem:  # noqa: BLE001 - the client cannot tell any more (cancelled, disconnected)
+        return problem
+
+
 def _failure(future: Any) -> str:
     """``KilledWorker: ...``: why the cluster gave up on *future*."""
-    try:
-        exc = future.exception(timeout=5)
-    except Exception as problem:  # noqa: BLE001 - the client cannot tell any more (cancelled, disconnected)
-        exc = problem
+    exc = _exception(future)
     if exc is None:
         return f"the task was {future.status}"
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__

@@ -7,7 +7,7 @@ the workers may run on other machines and in other directories, so the client
 resolves every such path (relative to the case file, or to its own working
 directory for ``--plugin`` and ``--system TYPE:CONFIG``), reads the files into
 one :class:`Files` value, and the executor sends that value to each worker
-*once* (``client.scatter(..., broadcast=True)``), not with every task.
+*once* (a Dask worker plugin that installs it as the worker starts), not with every task.
 
 On a worker, :func:`install` writes the files into a private directory (the
 Dask worker's own scratch directory, removed with the worker) that mirrors the

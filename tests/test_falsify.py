@@ -129,7 +129,11 @@ def test_the_search_block_is_used_and_options_win(tmp_path: pathlib.Path) -> Non
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--budget", "0"], "--budget 0"),
+    (["--budget", "0"], "--budget 0: 0 is less than the minimum of 1"),
+    # the same ranges as the file's search block (they were unbounded here, bounded there)
+    (["--budget", "1000001"], "--budget 1000001: 1000001 is greater than the maximum of 1000000"),
+    (["--batch", "1025"], "--batch 1025: 1025 is greater than the maximum of 1024"),
+    (["--seed", "-1"], "--seed -1: -1 is less than the minimum of 0"),
     (["--method", "nope"], "invalid choice"),
 ])  # fmt: skip
 def test_bad_options_are_exit_2(tmp_path: pathlib.Path, capsys: Any, args: list[str], message: str) -> None:

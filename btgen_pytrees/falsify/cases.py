@@ -16,6 +16,7 @@ from ..construct import generate
 from ..errors import InvalidTestCase, Problem, UsageError
 from ..leaves import Registry
 from ..load import validate
+from ..load.schema import schema
 from ..render import GraphvizMissing
 from ..run import run
 from ..run.replay import replay_html
@@ -23,6 +24,7 @@ from ..load.template import Sweep, Variation
 from ..parallel import Workers
 from ..sweep.jobs import RunOptions, VariationOutcome
 from ..sweep.runs import file_name, run_variations
+from ..validator import shared_validator
 from .jobs import job_probe
 from .margins import row_margins
 from .search import Settings
@@ -50,10 +52,12 @@ def settings_of(block: Mapping[str, Any] | None, options: Mapping[str, Any], cri
                 for k in block.get("scale", {}) if k not in criteria]  # fmt: skip
     if problems:
         raise InvalidTestCase(problems, source)
-    for option, low in (("budget", 1), ("batch", 1), ("seed", 0)):
+    ranges = schema()["$defs"]["search"]["properties"]  # an option's range is the search block's, written once
+    for option in ("budget", "batch", "seed"):
         value = options.get(option)
-        if value is not None and value < low:
-            raise UsageError(f"--{option} {value}: must be at least {low}")
+        error = next(shared_validator(ranges[option]).iter_errors(value), None) if value is not None else None
+        if error is not None:
+            raise UsageError(f"--{option} {value}: {error.message} (as search.{option} in the file)")
     pick = {k: (options.get(k) if options.get(k) is not None else block.get(k))
             for k in ("budget", "method", "seed", "batch", "stop", "start")}  # fmt: skip
     given = {k: v for k, v in pick.items() if v is not None}

@@ -568,7 +568,19 @@ def test_criteria_without_a_gradient_leave_the_search_space_filling(tmp_path: pa
     main(["falsify", path, "--budget", "32", "--method", "cmaes", "--jobs", "1", "--json", str(tmp_path / "f.json")])
     report = json.loads((tmp_path / "f.json").read_text())
     assert report["graded"] == [] and any("space-filling" in n for n in report["notes"])
+    assert any(n.startswith("no gradient over the start (F1)") for n in report["notes"])
     assert {r["phase"] for r in report["runs"]} <= {"start", "shrink", "bound"}
+
+
+def test_a_start_too_short_to_show_a_gradient_is_not_said_to_have_none(tmp_path: pathlib.Path) -> None:
+    """A budget under 8 gives a start of one run at batch 1: one margin cannot show a gradient, and the
+    note said the criterion had none (as for a boolean); it now says the start was too short."""
+    target = tmp_path / "f.json"
+    main(["falsify", str(ISLAND), "--budget", "6", "--jobs", "1", "--json", str(target)])
+    report = json.loads(target.read_text())
+    assert report["start"] == 1 and report["graded"] == []
+    assert report["notes"] == ["a start of 1 run with 1 passing cannot show a gradient (F1; a longer start: search.start, "
+                               "or a budget of 8 or more): the search stays space-filling"]  # fmt: skip
 
 
 # -- shrink, bound, counterexamples -----------------------------------------------------------------

@@ -243,8 +243,11 @@ class Search:
             r.objective = self._objective(r)
         flat = [i for i in ids if i not in graded]
         if flat:
-            self.notes.append(f"no gradient over the start ({', '.join(flat)}): "
-                              + ("these guide nothing but still fail runs" if graded else "the search stays space-filling"))  # fmt: skip
+            passed = sum(1 for r in start if not r.failed)
+            seen_as = (f"no gradient over the start ({', '.join(flat)})" if passed > 1 else
+                       f"a start of {len(start)} run{'s' * (len(start) != 1)} with {passed} passing cannot show a "
+                       f"gradient ({', '.join(flat)}; a longer start: search.start, or a budget of 8 or more)")  # fmt: skip
+            self.notes.append(seen_as + ": " + ("these guide nothing but still fail runs" if graded else "the search stays space-filling"))  # fmt: skip
         if not graded:
             self.sampler.space_filling()
         self.sampler.rescore([self._told(r) for r in self._sampled()])

@@ -659,6 +659,8 @@ def test_counterexamples_at_one_point_are_one_file(tmp_path: pathlib.Path) -> No
     report = json.loads(target.read_text())
     labels = {ce["label"] for ce in report["counterexamples"]}
     assert len(report["clusters"]) > 1 and len(labels) < len(report["counterexamples"])  # the case above
+    # and the nominal point ran once: a later cluster's shrink takes the run it has (it ran it again, each time)
+    assert [r["parameters"] for r in report["runs"]].count(report["parameters"]) == 1
     files = sorted(out.glob("*.json"))
     assert len(files) == len(labels)
     for ce in report["counterexamples"]:

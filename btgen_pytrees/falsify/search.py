@@ -345,8 +345,17 @@ class Search:
         lo, hi, hi_run = 0.0, 1.0, fail
         first = True
         pass_run: Run | None = None
+        before = next((r for r in self.runs if r.unit == at(0.0)), None)
+        if before is not None:  # the segment's origin ran before (a failing nominal point: every cluster ends there)
+            first = False
+            if before.failed:  # the cluster reaches it: a member, as when it ran it again
+                hi, hi_run = 0.0, before
+                if before.index not in cluster.members:
+                    cluster.members = sorted([*cluster.members, before.index])
+            else:
+                pass_run = before
         k = self.settings.batch
-        while not self._resolved(at(lo), at(hi)):
+        while hi > 0.0 and not self._resolved(at(lo), at(hi)):
             ts = ([0.0] if first else []) + [lo + (hi - lo) * j / (k + 1) for j in range(1, k + 1 - (1 if first else 0))]
             runs = yield [at(t) for t in ts]
             first = False

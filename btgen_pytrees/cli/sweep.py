@@ -16,7 +16,7 @@ import logging
 import os
 import signal
 import sys
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 from ..errors import ExitCode, UsageError, plural
 from ..leaves.plugins import is_path
@@ -111,7 +111,8 @@ def moved(document: dict[str, Any], source: str, out_dir: str) -> dict[str, Any]
     return {**document, "system": {**document["system"], "config": config}}
 
 
-def make_executor(args: argparse.Namespace, keep: Any = None) -> Any:
+def make_executor(args: argparse.Namespace,
+                  keep: tuple[Callable[[], None], Callable[[], None]] | None = None) -> DaskExecutor | None:  # fmt: skip
     """None for the local pool; a connected :class:`~btgen_pytrees.parallel.dask.DaskExecutor` for ``--executor dask``
     (*keep*: its ``keep``, what each worker process enters before its first task and leaves at the end).
 

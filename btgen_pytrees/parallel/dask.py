@@ -65,7 +65,7 @@ from ..errors import UserError
 from .shipping import Files, install
 
 __all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "TaskFailed", "scheduler_address",
-           "check_address", "run_chunk", "CHUNKS_PER_WORKER", "MAX_CHUNK"]  # fmt: skip
+           "check_address", "run_chunk", "CHUNKS_PER_WORKER", "MAX_CHUNK", "KILLED"]  # fmt: skip
 
 CHUNKS_PER_WORKER = 8
 """Tasks per worker a sweep is split into (more: finer progress and balance; fewer: less overhead)."""
@@ -364,10 +364,20 @@ def _exception(future: Any) -> BaseException | None:
         return problem
 
 
+KILLED = ("KilledWorker: the run killed its Dask worker process every time it was tried, alone on the cluster "
+          "(os._exit, a crash or a signal in user code or a simulator, or out of memory)")
+"""What a run that kills its worker even alone says: the same words each time (Dask's own message names the
+task's random key and the last worker's address, which would make two reports of one sweep differ)."""
+
+
 def _failure(future: Any) -> str:
     """``KilledWorker: ...``: why the cluster gave up on *future*."""
+    from distributed import KilledWorker
+
     exc = _exception(future)
     if exc is None:
         return f"the task was {future.status}"
+    if isinstance(exc, KilledWorker):
+        return KILLED
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
 

@@ -538,3 +538,51 @@ def test_user_code_that_kills_every_worker_costs_its_own_runs_only(tmp_path: pat
 
 def _worker_plugins(dask_scheduler: Any) -> list[str]:
     return list(dask_scheduler.worker_plugins)
+
+
+SLOW_INSTALL = '''
+"""Worker preload: writing a shipped file takes 3 s (as 60 MB of SUMO network and routes to a busy disk would)."""
+import sys
+import time
+
+
+def dask_setup(worker):
+    def hook(event, args):
+        if event == "open" and args and isinstance(args[0], str) and "/.btgen-files-" in args[0]:
+            time.sleep(3)
+
+    sys.addaudithook(hook)
+'''
+
+
+def test_ctrl_c_while_the_workers_install_the_files_leaves_no_plugin_on_the_scheduler(tmp_path: pathlib.Path) -> None:
+    """The scheduler holds a files plugin as soon as it gets it, then waits for every worker to install the files:
+    a Ctrl-C in that wait left the plugin registered for good (the executor recorded its name only once the
+    registration returned), and every worker that joined the cluster later installed those files again."""
+    from distributed import Client, LocalCluster
+
+    preload = tmp_path / "slow.py"
+    preload.write_text(SLOW_INSTALL)
+    (tmp_path / "mark_plugin.py").write_text(MARK_PLUGIN)
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(slow_sweep(4)))
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.CRITICAL, preload=[str(preload)]) as own, \
+            Client(own.scheduler_address, set_as_default=False) as client:  # fmt: skip
+        proc = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "run", str(path), "--plugin",
+                                 str(tmp_path / "mark_plugin.py"), "--executor", "dask", "--scheduler",
+                                 own.scheduler_address, "--json", str(tmp_path / "r.json")],
+                                cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+        deadline = time.monotonic() + 60
+        while not client.run_on_scheduler(_btgen_plugins) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert client.run_on_scheduler(_btgen_plugins), "the command never shipped its files"
+        proc.send_signal(signal.SIGINT)  # the worker is still installing them (3 s)
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 130, err
+        assert not (tmp_path / "r.json").exists()
+        assert client.run_on_scheduler(_btgen_plugins) == []
+
+
+def _btgen_plugins(dask_scheduler: Any) -> list[str]:
+    return [name for name in dask_scheduler.worker_plugins if name.startswith("btgen")]

@@ -220,8 +220,10 @@ class DaskExecutor(Executor):
         self._unship()
         if files.items:
             name = f"btgen-files-{self._token[:12]}-{files.digest[:12]}"
-            self._client.register_plugin(_files_plugin(files), name=name)
+            # recorded first: the scheduler holds the plugin as soon as it gets it, while the workers still install
+            # the files - a Ctrl-C in that wait (long for big files) must still let close() remove it
             self._shipped = (name, files.digest)
+            self._client.register_plugin(_files_plugin(files), name=name)
 
     def _unship(self) -> None:
         """Let the scheduler forget the files of :meth:`ship` (the workers keep their copies until they end)."""
@@ -246,6 +248,9 @@ class DaskExecutor(Executor):
             try:
                 if self._client.status == "running":
                     self._unship()
+            except Exception:  # noqa: BLE001 - the scheduler gone, or it never got the plugin (interrupted as it was sent)
+                pass
+            try:
                 if self._keep is not None and self._client.status == "running":
                     self._client.run(_leave_kept, self._keep[0], self._leave)
             except Exception:  # noqa: BLE001 - a worker or the scheduler gone: what it kept ends with its process

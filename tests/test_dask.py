@@ -510,16 +510,20 @@ def test_user_code_that_kills_every_worker_costs_its_own_runs_only(tmp_path: pat
         sweep.write_text(json.dumps({**data, "parameters": {"w": 0}, "variations": {"w": list(range(1, 41))}}))
         result = cli("run", str(sweep), "--plugin", str(plugin), "--executor", "dask", "--scheduler",
                      own.scheduler_address, "--json", str(tmp_path / "r.json"))  # fmt: skip
-        assert result.returncode == 3, result.stderr  # the killed chunk's runs are internal errors (not run)
+        assert result.returncode == 1, result.stderr  # the killing run is its error, as on the local pool
         rows = json.loads((tmp_path / "r.json").read_text())["rows"]
         assert [r["label"] for r in rows] == [f"w={k}" for k in range(1, 41)]
         verdicts = {r["label"]: r["verdict"] for r in rows}
         # chunks of 3 variations (40 over 2 workers x 8): w=3 kills every worker that runs w=1..3, and the tasks
         # queued beside it; each of their runs is tried alone after, so only w=3 itself is an error
         # the same words every time: Dask's own message names the task's random key and a worker's port
-        assert verdicts["w=3"] == "error" and rows[2]["message"] == f"internal error: run on the Dask cluster failed: {KILLED}"
+        assert verdicts["w=3"] == "error" and rows[2]["message"] == f"w=3: error: {KILLED}"
         assert verdicts["w=5"] == "error" and "SystemExit" in rows[4]["message"]
         assert [k for k, v in verdicts.items() if v != "pass"] == ["w=3", "w=5"]
+        # the local pool's verdicts (and exit code): it too runs a dead chunk's variations again one by one
+        local = cli("run", str(sweep), "--plugin", str(plugin), "--jobs", "2", "--json", str(tmp_path / "l.json"))
+        assert local.returncode == 1, local.stderr
+        assert {r["label"]: r["verdict"] for r in json.loads((tmp_path / "l.json").read_text())["rows"]} == verdicts
         client.wait_for_workers(2, timeout=60)
         search = tmp_path / "f.json"
         search.write_text(json.dumps({**data, "parameters": {"w": 1}, "variations": {"w": {"from": 0, "to": 200, "step": 0.5}},
@@ -530,7 +534,7 @@ def test_user_code_that_kills_every_worker_costs_its_own_runs_only(tmp_path: pat
         runs = json.loads((tmp_path / "f.report.json").read_text())["runs"]
         assert len(runs) == 12
         killed = [r for r in runs if r["parameters"]["w"] > 190]
-        assert killed and all(r["verdict"] == "error" and r["message"].endswith(KILLED) for r in killed)
+        assert killed and all(r["verdict"] == "error" and r["message"].endswith(f": error: {KILLED}") for r in killed)
         assert all(r["verdict"] == "pass" for r in runs if r["parameters"]["w"] <= 190), [(r["index"], r["parameters"], r["verdict"], r.get("message")) for r in runs]
         # the files reached the restarted workers as a worker plugin, which each command removed as it ended
         assert not [name for name in client.run_on_scheduler(_worker_plugins) if name.startswith("btgen")]

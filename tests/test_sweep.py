@@ -475,7 +475,9 @@ def register(registry):
 '''
 
 
-def test_a_dying_worker_costs_its_chunk_and_a_raising_leaf_only_its_variation(tmp_path: pathlib.Path) -> None:
+def test_a_dying_worker_costs_its_own_variation_and_a_raising_leaf_only_its_variation(tmp_path: pathlib.Path) -> None:
+    """A worker that dies takes its chunk's runs with it; they run again one per job, so only the variation that
+    kills its worker is an error (the chunk's other two were errors too, and a Dask cluster said otherwise)."""
     (tmp_path / "dying_plugin.py").write_text(DYING_PLUGIN)
     data = swept({"w": 0}, {"w": list(range(1, 41))}, entry("A", action="maybe_die", when="$w"))
     path = tmp_path / "s.json"
@@ -485,8 +487,8 @@ def test_a_dying_worker_costs_its_chunk_and_a_raising_leaf_only_its_variation(tm
     rows = json.loads((tmp_path / "r.json").read_text())["rows"]
     assert len(rows) == 40 and [r["label"] for r in rows] == [f"w={k}" for k in range(1, 41)]  # complete, in order
     verdicts = {r["label"]: r["verdict"] for r in rows}
-    # chunks of 3 variations (40 over 2 workers x 8): w=3 kills the worker running w=1..3
-    assert [verdicts[f"w={k}"] for k in (1, 2, 3)] == ["error"] * 3
+    # chunks of 3 variations (40 over 2 workers x 8): w=3 kills the worker running w=1..3, then again alone
+    assert [verdicts[f"w={k}"] for k in (1, 2, 3)] == ["pass", "pass", "error"]
     assert "worker process exited" in rows[2]["message"]
     assert verdicts["w=5"] == "error" and "SystemExit" in rows[4]["message"]
-    assert verdicts["w=4"] == verdicts["w=6"] == "pass" and list(verdicts.values()).count("pass") == 36
+    assert [k for k, v in verdicts.items() if v != "pass"] == ["w=3", "w=5"]

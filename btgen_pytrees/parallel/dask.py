@@ -33,9 +33,11 @@ What the cluster gets and gives back:
   every task that was on a worker each time it died, the task that killed it and
   those queued beside it alike; so each call of such a chunk is run again *alone*
   (nothing else on the cluster), one after the other, and only a call that still
-  kills its workers comes back as a :class:`TaskFailed` (``process`` records it
-  as an internal error, code 3): the report is complete, and only the killing
-  run is an error.
+  kills its workers comes back as a :class:`~.outcome.WorkerDied` (``process``
+  records it as that run's error, code 1, as the local pool does a worker that
+  died with its job): the report is complete, and only the killing run is an error.
+  A chunk the cluster could not run otherwise comes back as a :class:`TaskFailed`
+  for each call (an internal error, code 3).
 * **Kept between tasks.** An executor made with ``keep=(enter, leave)`` calls
   ``enter()`` in each worker process before the first of its tasks there, and
   ``leave()`` in each such process when it closes (a sweep and a search pass
@@ -62,6 +64,7 @@ from concurrent.futures import CancelledError
 from typing import Any, Callable, Iterator, Sequence
 
 from ..errors import UserError
+from .outcome import WorkerDied
 from .shipping import Files, install
 
 __all__ = ["Executor", "DaskExecutor", "DaskUnavailable", "TaskFailed", "scheduler_address",
@@ -322,7 +325,13 @@ class DaskExecutor(Executor):
                     # have waited beside the task that killed them (queued on the same worker, or on its
                     # other thread): each of its calls runs again alone, below, to tell which one kills
                     suspects.extend(owner[future.key])
-                else:  # it failed alone (it kills its workers itself) or was cancelled: say so per call
+                elif future.key in alone and isinstance(_exception(future), KilledWorker):
+                    # it kills its worker even alone: that run's error, as the local pool says of a worker
+                    # process that died with its job (the words are ours: Dask's name a random key and a port)
+                    for i, _ in owner[future.key]:
+                        finished.add(i)
+                        yield i, WorkerDied(KILLED)
+                else:  # it failed otherwise, or was cancelled again: say so per call
                     why = f"run on the Dask cluster failed: {_failure(future)}"
                     for i, _ in owner[future.key]:
                         finished.add(i)
@@ -369,20 +378,16 @@ def _exception(future: Any) -> BaseException | None:
         return problem
 
 
-KILLED = ("KilledWorker: the run killed its Dask worker process every time it was tried, alone on the cluster "
+KILLED = ("the Dask worker process died each time it ran this run, alone on the cluster "
           "(os._exit, a crash or a signal in user code or a simulator, or out of memory)")
 """What a run that kills its worker even alone says: the same words each time (Dask's own message names the
 task's random key and the last worker's address, which would make two reports of one sweep differ)."""
 
 
 def _failure(future: Any) -> str:
-    """``KilledWorker: ...``: why the cluster gave up on *future*."""
-    from distributed import KilledWorker
-
+    """``ValueError: ...``: why the cluster gave up on *future*."""
     exc = _exception(future)
     if exc is None:
         return f"the task was {future.status}"
-    if isinstance(exc, KilledWorker):
-        return KILLED
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
 

@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 
 from ..errors import MAX_LINE, MAX_PROBLEMS, ExitCode, InvalidTestCase, UserError, is_interrupt, plural, printable, shorten, xml_safe
 
-__all__ = ["Outcome", "Interrupted", "guard", "capped", "summary", "merge_junit", "WORDS"]
+__all__ = ["Outcome", "Interrupted", "WorkerDied", "guard", "died", "capped", "summary", "merge_junit", "WORDS"]
 
 WORDS = {ExitCode.OK: "ok", ExitCode.FAIL: "FAIL", ExitCode.INVALID: "INVALID", ExitCode.INTERNAL: "ERROR"}
 """The summary's result column for an outcome's code (unless the outcome names its own)."""
@@ -36,6 +36,7 @@ class Outcome:
         outputs: ``(target, data)`` the job produced; the parent process writes
             them (workers never write files, so a killed worker leaves none half-written)
         warnings: the file's warning lines (printed on stderr unless ``--quiet``)
+        died: the worker process died running it (see :func:`died`)
     """
 
     path: str
@@ -47,11 +48,25 @@ class Outcome:
     outputs: list[tuple[str, str | bytes]] = field(default_factory=list, repr=False)
     junit: str = field(default="", repr=False)
     warnings: list[str] = field(default_factory=list)
+    died: bool = False
 
     @property
     def word(self) -> str:
         """The result column: ``ok``, ``FAIL``, ``INVALID``, ``ERROR``, ... ."""
         return self.result or WORDS.get(self.code, str(self.code))
+
+
+class WorkerDied(Exception):
+    """What an executor gives in place of a job's outcome when the worker process died running it
+    (not raised: given back); ``str()`` says how."""
+
+
+def died(path: str, why: str) -> Outcome:
+    """The outcome of a job whose worker process died running it (*why*: how): an error of that run
+    (code 1, like a leaf that raises), not an internal error - user code or a simulator killed it
+    (``os._exit``, a crash, a signal, the out-of-memory killer). The local pool and a Dask cluster
+    say it alike."""
+    return Outcome(path, ExitCode.FAIL, f"error: {why}", [f"{path}: error: {why}"], result="ERROR", died=True)
 
 
 def guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:

@@ -22,7 +22,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterator, Sequence, TextIO
 
 from ..errors import ExitCode, Interrupt
-from .outcome import Interrupted, Outcome, guard
+from .outcome import Interrupted, Outcome, WorkerDied, died, guard
 
 __all__ = ["process", "progress_stream", "Workers"]
 
@@ -269,8 +269,11 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
             stream = executor.map_unordered([partial(guard, job, p, *jobs_args[i]) for i, p in enumerate(paths)])
             try:
                 for i, result in stream:
-                    ok = isinstance(result, Outcome)
-                    record(i, result if ok else Outcome(paths[i], ExitCode.INTERNAL, f"internal error: {result}"))
+                    if isinstance(result, WorkerDied):
+                        record(i, died(paths[i], str(result)))
+                    else:
+                        ok = isinstance(result, Outcome)
+                        record(i, result if ok else Outcome(paths[i], ExitCode.INTERNAL, f"internal error: {result}"))
             finally:
                 stream.close()  # stopped early (Ctrl-C): the engine cancels what is left
         elif not isolate:
@@ -304,8 +307,7 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
                         if outcome is None:  # the worker died with this task: blame it, start a new worker
                             slot.process.join(1)
                             index = slot.task
-                            outcome = Outcome(paths[index], ExitCode.FAIL, f"error: {_death(slot.process.exitcode)}",
-                                              [f"{paths[index]}: error: {_death(slot.process.exitcode)}"], result="ERROR")  # fmt: skip
+                            outcome = died(paths[index], _death(slot.process.exitcode))
                             slots[slots.index(slot)] = kept.replace(slot)
                         else:
                             slot.task = None

@@ -139,5 +139,5 @@ def job_chunk(label: str, options: RunOptions, source: str,
 
 def chunk_size(n: int, workers: int, per_worker: int = 8, most: int = 32) -> int:
     """Runs per task: about *per_worker* tasks per worker, at most *most* runs each (a worker that
-    dies costs its task's runs), at least one."""
+    dies costs its task's runs a second run, one by one), at least one."""
     return max(1, min(most, -(-n // max(1, workers * per_worker))))

@@ -105,8 +105,9 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     with the configuration resolved here). On a cluster the files the runs read are sent to
     the workers first (:func:`ship`). On the local pool, variations go to the workers in chunks
     (:func:`~.jobs.chunk_size`: about 8 per worker, at most 32 runs each), so the cost of
-    handing a task to a process is paid once per chunk; a worker that dies costs its chunk
-    (each of its variations gets the error). A :class:`~btgen_pytrees.parallel.dask.DaskExecutor` chunks by itself.
+    handing a task to a process is paid once per chunk; a worker that dies takes its chunk with it,
+    and the chunk's variations run again one per job (only one that kills its worker alone is an
+    error). A :class:`~btgen_pytrees.parallel.dask.DaskExecutor` chunks by itself (and does the same).
     *pool* (a :class:`~btgen_pytrees.parallel.Workers`) runs the chunks in workers kept across calls (a search's batches).
 
     Raises:
@@ -125,5 +126,19 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     except Interrupted as stop:
         stop.finished = sum(len(c) for c, o in zip(chunks, stop.outcomes) if o.code != ExitCode.INTERRUPTED)  # type: ignore[attr-defined]
         raise
-    return [part for c, o in zip(chunks, done)
-            for part in (o.parts if isinstance(o, ChunkOutcome) else [o] * len(c))]  # a lost chunk: each its error
+    # a chunk whose worker died with it: its variations run again one per job, so that only the one that kills
+    # its worker is an error (the others had run beside it, or had yet to), as on a Dask cluster
+    dead = [(k, j) for k, (c, o) in enumerate(zip(chunks, done)) if len(c) > 1 and o.died
+            for j in range(len(c))]  # fmt: skip
+    alone: dict[tuple[int, int], Outcome] = {}
+    if dead:
+        try:
+            again = process(job, [(options, sweep.source, [job_args[k][2][j]]) for k, j in dead],
+                            [chunks[k][j].label for k, j in dead], workers=workers, progress=None, pool=pool)  # fmt: skip
+        except Interrupted as stop:
+            stop.finished = (sum(len(c) for c, o in zip(chunks, done) if not o.died)  # type: ignore[attr-defined]
+                             + sum(1 for o in stop.outcomes if o.code != ExitCode.INTERRUPTED))  # fmt: skip
+            raise
+        alone = dict(zip(dead, (o.parts[0] if isinstance(o, ChunkOutcome) else o for o in again)))
+    return [alone.get((k, j), part) for k, (c, o) in enumerate(zip(chunks, done))
+            for j, part in enumerate(o.parts if isinstance(o, ChunkOutcome) else [o] * len(c))]  # a lost chunk: each its error

@@ -134,7 +134,8 @@ def run_variations(sweep: Sweep, variations: Sequence[Variation], options: RunOp
     if dead:
         try:
             again = process(job, [(options, sweep.source, [job_args[k][2][j]]) for k, j in dead],
-                            [chunks[k][j].label for k, j in dead], workers=workers, progress=None, pool=pool)  # fmt: skip
+                            [chunks[k][j].label for k, j in dead], workers=workers, progress=None, pool=pool,
+                            isolate=True)  # fmt: skip  (never in this process: one of them kills its process)
         except Interrupted as stop:
             stop.finished = (sum(len(c) for c, o in zip(chunks, done) if not o.died)  # type: ignore[attr-defined]
                              + sum(1 for o in stop.outcomes if o.code != ExitCode.INTERRUPTED))  # fmt: skip

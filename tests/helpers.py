@@ -65,3 +65,29 @@ def broken_registry() -> Any:
     registry = default_registry()
     registry.register("broken", Broken)
     return registry
+
+
+DYING_PLUGIN = '''
+import os
+import py_trees
+from py_trees.common import Status
+
+
+class Leaf(py_trees.behaviour.Behaviour):
+    def __init__(self, entry, env):
+        super().__init__(name=entry.name)
+        self.when = entry.params.get("when")
+
+    def update(self):
+        if self.when == 3 or self.when > 190:
+            os._exit(0)  # kills the worker process, as a crashing simulator would
+        if self.when == 5:
+            raise SystemExit(0)
+        return Status.SUCCESS
+
+
+def register(registry):
+    registry.register("maybe_die", lambda entry, env: Leaf(entry, env), kind="behavior")
+'''
+"""A ``--plugin`` file whose ``maybe_die`` leaf (param ``when``) kills its process at 3 and above 190, and raises
+SystemExit at 5: what a crashing simulator or a misbehaving leaf does to the worker that runs it."""

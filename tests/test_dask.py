@@ -22,7 +22,7 @@ import time
 from typing import Any, Iterator
 
 import pytest
-from helpers import case, crit, entry
+from helpers import DYING_PLUGIN, case, crit, entry
 
 try:
     import distributed
@@ -459,30 +459,6 @@ def test_a_file_that_cannot_be_read_says_the_same_on_the_cluster(cluster: Any, t
     assert local.stdout == dask.stdout and sorted(local.stderr.splitlines()) == sorted(dask.stderr.splitlines())
 
 
-KILLING_PLUGIN = '''
-import os
-import py_trees
-from py_trees.common import Status
-
-
-class Leaf(py_trees.behaviour.Behaviour):
-    def __init__(self, entry, env):
-        super().__init__(name=entry.name)
-        self.when = entry.params.get("when")
-
-    def update(self):
-        if self.when == 3 or self.when > 190:
-            os._exit(0)  # kills the Dask worker process, as a crashing simulator would
-        if self.when == 5:
-            raise SystemExit(0)
-        return Status.SUCCESS
-
-
-def register(registry):
-    registry.register("maybe_die", lambda entry, env: Leaf(entry, env), kind="behavior")
-'''
-
-
 def test_user_code_that_kills_every_worker_costs_its_own_runs_only(tmp_path: pathlib.Path) -> None:
     """A plugin leaf that kills its worker process kills the next one too when the task is tried again, until the
     scheduler gives up on it (KilledWorker) - and with every worker that held them, the files shipped for the run
@@ -499,7 +475,7 @@ def test_user_code_that_kills_every_worker_costs_its_own_runs_only(tmp_path: pat
     from btgen_pytrees.parallel.dask import KILLED
 
     plugin = tmp_path / "killing_plugin.py"
-    plugin.write_text(KILLING_PLUGIN)
+    plugin.write_text(DYING_PLUGIN)
     data = case(entry("A", action="maybe_die", when="$w"), criteria=[crit("F", "final", "true")])
     # a LocalCluster closes for good a worker that is not back 15 s after it was lost (lost-worker-timeout),
     # which a worker restarting at that moment after the next kill is not: the cluster then shrank mid-test

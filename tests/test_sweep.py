@@ -9,7 +9,7 @@ import sys
 from typing import Any
 
 import pytest
-from helpers import case, crit, entry, run_case
+from helpers import DYING_PLUGIN, case, crit, entry, run_case
 
 import btgen_pytrees
 from btgen_pytrees import InvalidTestCase, load
@@ -449,30 +449,6 @@ def test_require_complete_reaches_every_variation(tmp_path: pathlib.Path) -> Non
     assert cli("expand", str(path), "--out-dir", str(tmp_path / "x")).returncode == 0
     alone = tmp_path / "x" / "t[d=3].json"
     assert cli("run", str(alone), "--require-complete").returncode == 1
-
-
-DYING_PLUGIN = '''
-import os
-import py_trees
-from py_trees.common import Status
-
-
-class Leaf(py_trees.behaviour.Behaviour):
-    def __init__(self, entry, env):
-        super().__init__(name=entry.name)
-        self.when = entry.params.get("when")
-
-    def update(self):
-        if self.when == 3:
-            os._exit(0)  # kills the worker process, as a crashing simulator would
-        if self.when == 5:
-            raise SystemExit(0)
-        return Status.SUCCESS
-
-
-def register(registry):
-    registry.register("maybe_die", lambda entry, env: Leaf(entry, env), kind="behavior")
-'''
 
 
 def test_a_dying_worker_costs_its_own_variation_and_a_raising_leaf_only_its_variation(tmp_path: pathlib.Path) -> None:

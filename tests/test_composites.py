@@ -1,7 +1,9 @@
 """The generator's nodes tick as py_trees' own classes do, minus py_trees' per-tick waste.
 
 ``leaves.composites.Parallel`` (every Parallel the generator builds, the tree's root too; its ``tick``
-and ``stop``), ``leaves.node.Node`` (every leaf of the package: ``tick`` and ``stop``) and
+and ``stop``), ``leaves.composites.Sequence`` (every Sequence it builds; its ``tick`` and ``stop``:
+a leaf of the package's ticked without a generator, a child whose tick ends with its own node ticked
+with ``yield from``, any other child with py_trees' loop), ``leaves.node.Node`` (every leaf of the package: ``tick`` and ``stop``) and
 ``leaves.wiring.Completion.tick`` are py_trees' ``Parallel``, ``Behaviour`` and ``Decorator`` methods
 without what those spend on every tick for nothing. Each test ticks two trees side by side: the one
 as built, and its twin whose nodes run py_trees' own methods (the class swapped for the stock one, or
@@ -25,7 +27,7 @@ from py_trees.common import ParallelPolicy, Status
 
 import btgen_pytrees
 from btgen_pytrees.clock import VirtualClock
-from btgen_pytrees.leaves.composites import Parallel
+from btgen_pytrees.leaves.composites import Parallel, Sequence
 from btgen_pytrees.leaves.node import Node
 from btgen_pytrees.leaves.wiring import Completion, TreeRoot, WakingParallel
 from btgen_pytrees.run import run_tree
@@ -64,6 +66,8 @@ def stock_twin(root: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behavio
         cls = type(node)
         if cls is Parallel:
             node.__class__ = py_trees.composites.Parallel
+        elif cls is Sequence:
+            node.__class__ = py_trees.composites.Sequence
         elif cls is TreeRoot:
             node.__class__ = _StockRoot
         elif cls.tick in (Node.tick, Completion.tick) or cls.stop in (Node.stop, Parallel.stop):
@@ -80,11 +84,13 @@ def _lean_ticks(root: py_trees.behaviour.Behaviour) -> set[str]:
             found.add("TreeRoot")
         elif cls.tick is Parallel.tick:
             found.add(f"Parallel {type(node.policy).__name__}")
+        elif cls.tick is Sequence.tick:
+            found.add("Sequence")
         elif cls.tick is Completion.tick:
             found.add("Completion")
         elif cls.tick is Node.tick:
             found.add("Node")
-        if cls.stop in (Node.stop, Parallel.stop):
+        if cls.stop in (Node.stop, Parallel.stop, Sequence.stop):
             found.add("stop")
     return found
 
@@ -166,7 +172,7 @@ def test_the_examples_run_every_lean_tick() -> None:
                 relation={"record": "||", "others": "&&"}, signals={"x": 0}, tick=0.1, timeout=10)  # fmt: skip
     used = _lockstep(data)
     assert used == {"TreeRoot", "Completion", "Node", "Parallel SuccessOnAll", "Parallel SuccessOnOne", "stop",
-                    "Parallel SuccessOnSelected"}  # the oracle root: the non-record group decides
+                    "Parallel SuccessOnSelected", "Sequence"}  # the oracle root: the non-record group decides
     failing = case(entry("A", action="until", expect="x >= 9", timeout=0.5), entry("B", ["A"]),
                    criteria=[crit("R", "record", "x <= 5")], signals={"x": 0}, tick=0.1, timeout=10)  # fmt: skip
     _lockstep(failing)  # the execute subtree fails: FAILURE up through the Sequences and Parallels
@@ -198,14 +204,34 @@ class _Scripted(Node):
         return status
 
 
+class _Twice(py_trees.behaviour.Behaviour):
+    """A user's leaf whose ``tick`` yields itself twice (py_trees' own ``tick`` run twice: two updates): a
+    Sequence must look at it after its first yield, as py_trees' loop does, and stop there when it did not
+    succeed - the second update never runs. Not one of the package's nodes: the Sequence keeps py_trees' loop."""
+
+    def __init__(self, name: str, script: tuple[Any, ...]):
+        super().__init__(name)
+        self.script = script
+        self.calls = 0
+
+    def update(self) -> Any:
+        status = self.script[min(self.calls, len(self.script) - 1)]
+        self.calls += 1
+        return status
+
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        yield from py_trees.behaviour.Behaviour.tick(self)
+        yield from py_trees.behaviour.Behaviour.tick(self)
+
+
 _STATUS = st.sampled_from([Status.SUCCESS, Status.FAILURE, Status.RUNNING, Status.RUNNING])
 
 
 @st.composite
 def trees(draw: Any, depth: int = 0) -> Any:
-    """A recipe: ("leaf", script) or (kind, policy, synchronise, children)."""
+    """A recipe: ("leaf" or "twice", script) or (kind, policy, synchronise, children)."""
     if depth >= 3 or draw(st.integers(0, 3)) == 0:
-        return ("leaf", tuple(draw(st.lists(_STATUS, min_size=1, max_size=5))))
+        return (draw(st.sampled_from(["leaf", "leaf", "twice"])), tuple(draw(st.lists(_STATUS, min_size=1, max_size=5))))
     kind = draw(st.sampled_from(["parallel", "parallel", "sequence"]))
     children = draw(st.lists(trees(depth + 1), min_size=0 if kind == "parallel" else 1, max_size=4))
     return (kind, draw(st.sampled_from(["all", "one", "selected"])), draw(st.booleans()), children)
@@ -218,10 +244,12 @@ def _build(recipe: Any, lean: bool, names: Iterator[int]) -> py_trees.behaviour.
         if not lean:
             node.__class__ = _stock(_Scripted)
         return node
+    if recipe[0] == "twice":
+        return _Twice(name, recipe[1])
     kind, policy_name, synchronise, children = recipe
     built = [_build(child, lean, names) for child in children]
     if kind == "sequence":
-        return py_trees.composites.Sequence(name, memory=synchronise, children=built)
+        return (Sequence if lean else py_trees.composites.Sequence)(name, memory=synchronise, children=built)
     if policy_name == "all":
         policy: ParallelPolicy.Base = ParallelPolicy.SuccessOnAll(synchronise=synchronise)
     elif policy_name == "one":
@@ -246,8 +274,10 @@ def test_random_trees_tick_as_py_trees_own(recipe: Any) -> None:
     for k in range(8):
         assert _ticked(lean) == _ticked(stock), f"tick {k}"
         assert _state(lean) == _state(stock), f"tick {k}"
-        assert [(getattr(n, "initialised", None), getattr(n, "terminated", None)) for n in lean.iterate()] == [
-            (getattr(n, "initialised", None), getattr(n, "terminated", None)) for n in stock.iterate()]
+        assert [(getattr(n, "initialised", None), getattr(n, "terminated", None), getattr(n, "calls", None))
+                for n in lean.iterate()] == [
+            (getattr(n, "initialised", None), getattr(n, "terminated", None), getattr(n, "calls", None))
+            for n in stock.iterate()]  # fmt: skip
     lean.stop(Status.INVALID)
     stock.stop(Status.INVALID)
     assert _state(lean) == _state(stock)
@@ -260,6 +290,22 @@ def test_an_unknown_policy_raises_as_py_trees_does() -> None:
     for cls in (Parallel, py_trees.composites.Parallel):
         with pytest.raises(RuntimeError, match="unrecognised policy"):
             cls("p", Odd(), [_Scripted("a", (Status.RUNNING,))]).tick_once()
+
+
+def test_a_selection_of_no_child_or_of_a_stranger_raises_as_py_trees_does(capsys: pytest.CaptureFixture[str]) -> None:
+    """py_trees' check of a ``SuccessOnSelected`` policy runs where it finds something: the same error, logged."""
+    outputs = []
+    for cls in (Parallel, py_trees.composites.Parallel):
+        stranger = _Scripted("stranger", (Status.RUNNING,))
+        child = _Scripted("a", (Status.RUNNING,))
+        for selected in ([], [child, stranger]):
+            parallel = cls("p", ParallelPolicy.SuccessOnSelected(selected), [child])
+            with pytest.raises(RuntimeError) as raised:
+                parallel.tick_once()
+            child.parent = None
+            outputs.append((str(raised.value), capsys.readouterr().out))
+    assert outputs[:2] == outputs[2:]
+    assert "non-empty selection" in outputs[0][0] and "['stranger']" in outputs[1][0]
 
 
 def test_the_same_log_lines_as_py_trees(capsys: pytest.CaptureFixture[str]) -> None:
@@ -280,6 +326,7 @@ def test_the_same_log_lines_as_py_trees(capsys: pytest.CaptureFixture[str]) -> N
         py_trees.logging.level = level
     assert outputs[0] == outputs[2] and outputs[1] == outputs[3]
     assert "Parallel.tick()" in outputs[0] and "_Scripted.tick()" in outputs[0] and "re-initialising" in outputs[0]
+    assert "Sequence.tick()" in outputs[0] and "Sequence.stop()" in outputs[0]
     assert "A behaviour returned an invalid status" in outputs[1] and "tick()" not in outputs[1]
 
 
@@ -292,3 +339,12 @@ def test_every_parallel_the_generator_builds_is_the_lean_one() -> None:
     assert {type(n) for n in parallels} == {Parallel, TreeRoot, WakingParallel}
     assert all(isinstance(n, Parallel) for n in parallels)
     assert {type(n).__name__ for n in parallels if type(n) is Parallel} == {"Parallel"}  # what the views show
+
+
+def test_every_sequence_the_generator_builds_is_the_lean_one() -> None:
+    data = case(entry("A"), entry("B", ["A"]), entry("C", ["A"]), entry("D", ["B", "C"], join="any"),
+                criteria=[crit("R", "record", "x <= 5")], signals={"x": 0})  # fmt: skip
+    root = btgen_pytrees.generate(btgen_pytrees.load(data))
+    sequences = [n for n in root.iterate() if isinstance(n, py_trees.composites.Sequence)]
+    assert len(sequences) >= 3 and {type(n) for n in sequences} == {Sequence}
+    assert {type(n).__name__ for n in sequences} == {"Sequence"}  # what the views show

@@ -21,6 +21,7 @@ from py_trees.blackboard import Blackboard
 import btgen_pytrees
 from btgen_pytrees.clock import VirtualClock
 from btgen_pytrees.leaves import default_registry
+from btgen_pytrees.leaves.composites import Sequence
 from btgen_pytrees.render.nodes import walk
 from btgen_pytrees.run import run
 from btgen_pytrees.run.trace import STATUSES, TraceRecorder
@@ -430,3 +431,16 @@ def test_a_signal_that_stops_existing_ends_in_the_trace_and_in_every_view() -> N
 
     assert pickle.loads(pickle.dumps(trace)).series("car.speed") == trace.series("car.speed")  # ENDED stays ENDED
     assert copy.deepcopy(ENDED) is ENDED
+
+
+def test_the_generators_sequences_are_recorded_as_py_trees_memory_sequences(fig1_path: str) -> None:
+    """The generator's Sequences (``leaves.composites.Sequence``, a leaner ``tick``) halt their children only
+    when they finish, as py_trees' Sequence with memory does: the recorder gives them that kind, not the
+    kind of a composite whose tick is unknown (which it would look below on every tick)."""
+    root = btgen_pytrees.generate(btgen_pytrees.load(fig1_path))
+    ours = TraceRecorder(root)._kinds
+    sequences = [n for n in root.iterate() if type(n) is Sequence]
+    assert sequences
+    for node in sequences:
+        node.__class__ = py_trees.composites.Sequence
+    assert TraceRecorder(root)._kinds == ours

@@ -40,10 +40,9 @@ from typing import Any, Mapping
 
 import networkx as nx
 import py_trees
-from py_trees.composites import Sequence
 
 from ..leaves import Environment, Registry
-from ..leaves.composites import Parallel
+from ..leaves.composites import Parallel, Sequence
 from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
 from ..model import Entry
 from ..timeline import topological_positions

@@ -34,9 +34,10 @@ so a py_trees release that changes ``Behaviour.__init__`` fails there, not in a 
 
 Every node class of this package derives from it (the simulated leaves, the oracles, the wiring's
 leaves and decorators: ``class Completion(py_trees.decorators.Decorator, Node)`` puts it between the
-decorator and ``Behaviour``, so ``Decorator.__init__`` reaches it); the Sequences the generator
-builds are py_trees' own classes, its Parallels py_trees' own with a leaner ``tick``
-(:mod:`btgen_pytrees.leaves.composites`), and every user leaf is the user's.
+decorator and ``Behaviour``, so ``Decorator.__init__`` reaches it); the Sequences and Parallels the
+generator builds are py_trees' own with a leaner ``tick`` (:mod:`btgen_pytrees.leaves.composites`),
+which tick a child whose class ticks with :meth:`Node.tick` by its :meth:`~Node.tick_now`, and every
+user leaf is the user's.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from uuid import UUID
 import py_trees
 from py_trees.common import BlackBoxLevel, Status
 
-__all__ = ["Node", "new_id", "STATUSES"]
+__all__ = ["Node", "new_id", "STATUSES", "NODE_TICK"]
 
 STATUSES = tuple(Status)
 """py_trees' statuses, made once: what ``Behaviour.tick`` builds ``list(Status)`` for on every tick."""
@@ -91,7 +92,14 @@ class Node(py_trees.behaviour.Behaviour):
 
     def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
         """``Behaviour.tick``: initialise when not running, update, stop on a final status, yield the node
-        (see the module for what it does not spend)."""
+        (see the module for what it does not spend): :meth:`tick_now`, then ``yield self``."""
+        self.tick_now()
+        yield self
+
+    def tick_now(self) -> None:
+        """The steps of :meth:`tick` before its one yield: what the generator's composites call for a child
+        whose class ticks with :meth:`tick` (:data:`NODE_TICK`), then yield the child themselves - the same
+        steps at the same moment, without a generator made and resumed for each leaf on every tick."""
         if _logging.level < _INFO:
             self.logger.debug(f"{self.__class__.__name__}.tick()")
         if self.status != _RUNNING:
@@ -104,7 +112,6 @@ class Node(py_trees.behaviour.Behaviour):
         if new_status != _RUNNING:
             self.stop(new_status)
         self.status = new_status
-        yield self
 
     def stop(self, new_status: Status) -> None:
         """``Behaviour.stop``: terminate, take the status, a fresh ``tick()`` generator as :attr:`iterator` -
@@ -140,3 +147,8 @@ class Node(py_trees.behaviour.Behaviour):
     @iterator.setter
     def iterator(self, value: Iterator[py_trees.behaviour.Behaviour]) -> None:
         self._iterator = value
+
+
+NODE_TICK = Node.tick
+"""``Node.tick``: a composite that finds it as its child's class's ``tick`` calls the child's
+:meth:`~Node.tick_now` and yields the child instead of ticking it through a generator."""

@@ -30,8 +30,8 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from ..contracts.environment import Environment
-from .composites import Parallel
-from .node import STATUSES, Node
+from .composites import Parallel, ends_with_itself
+from .node import NODE_TICK, STATUSES, Node
 
 __all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
 
@@ -93,14 +93,22 @@ class Completion(py_trees.decorators.Decorator, Node):
         self.env = env
         self.marks = marks
 
+    @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         """``Decorator.tick``: initialise when not running, tick the child, update, stop on a final status,
-        yield the node - without building ``list(Status)`` or a debug line nobody prints (as :class:`Node`)."""
+        yield the node - without building ``list(Status)`` or a debug line nobody prints (as :class:`Node`),
+        nor a generator for a child that is one of the package's leaves (its ``tick_now``, then the child
+        yielded here: :class:`~btgen_pytrees.leaves.composites.Sequence`)."""
         if py_trees.logging.level < py_trees.logging.Level.INFO:
             self.logger.debug(f"{self.__class__.__name__}.tick()")
         if self.status != Status.RUNNING:
             self.initialise()
-        yield from self.decorated.tick()
+        decorated = self.decorated
+        if type(decorated).tick is NODE_TICK:
+            decorated.tick_now()
+            yield decorated
+        else:
+            yield from decorated.tick()
         new_status = self.update()
         if new_status not in STATUSES:
             self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
@@ -247,6 +255,7 @@ class WakingParallel(Parallel):
                 else:
                     self._next.append(i)
 
+    @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         children = self.children
         if self.status != Status.RUNNING:
@@ -278,7 +287,11 @@ class WakingParallel(Parallel):
             child = children[i]
             if child.status == Status.SUCCESS:
                 continue
-            yield from child.tick()
+            if type(child).tick is NODE_TICK:  # a leaf of ours (see Parallel.tick)
+                child.tick_now()
+                yield child
+            else:
+                yield from child.tick()
             status = child.status
             if status == Status.SUCCESS:
                 self._succeeded += 1
@@ -338,11 +351,17 @@ class OrMember(py_trees.decorators.Decorator, Node):
     def initialise(self) -> None:
         self.latched = False
 
+    @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         if self.status != Status.RUNNING:
             self.initialise()
         if not self.latched:
-            yield from self.decorated.tick()
+            decorated = self.decorated
+            if type(decorated).tick is NODE_TICK:  # a leaf of ours (see Completion.tick)
+                decorated.tick_now()
+                yield decorated
+            else:
+                yield from decorated.tick()
             if self.decorated.status == Status.FAILURE:
                 self.latched = True
                 if not self.env.is_failed(self.member):

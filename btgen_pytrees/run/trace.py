@@ -60,6 +60,7 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Status
 
 from ..leaves.composites import Parallel
+from ..leaves.composites import Sequence as LeanSequence
 from ..leaves.wiring import Completion, WakingParallel
 from ..render.nodes import role_of
 from .index import TreeIndex
@@ -79,6 +80,7 @@ def _code(status: Status) -> int:
 _PLAIN, _COMPOSITE, _REACTIVE = 0, 1, 2
 _KEEPS_CHILDREN = (py_trees.composites.Parallel.tick, Parallel.tick, WakingParallel.tick, py_trees.decorators.Decorator.tick,
                    Completion.tick)  # (TreeRoot's tick is Parallel.tick)
+_SEQUENCE_TICKS = (py_trees.composites.Sequence.tick, LeanSequence.tick)  # py_trees' and the generator's
 
 
 def _kind(node: py_trees.behaviour.Behaviour) -> int:
@@ -94,7 +96,7 @@ def _kind(node: py_trees.behaviour.Behaviour) -> int:
     with children have a kind; the recorder treats the others as ``_PLAIN``.
     """
     tick = type(node).tick
-    if tick in _KEEPS_CHILDREN or (tick is py_trees.composites.Sequence.tick and getattr(node, "memory", False)):
+    if tick in _KEEPS_CHILDREN or (tick in _SEQUENCE_TICKS and getattr(node, "memory", False)):
         return _COMPOSITE
     return _REACTIVE
 
@@ -332,13 +334,12 @@ class TraceRecorder(py_trees.visitors.VisitorBase):
         behaviours, ends = index.nodes, index.ends
         kinds = bytearray(len(behaviours))
         known: dict[type, int] = {}  # by class, for the classes whose kind is not a Sequence's (by its memory)
-        sequence = py_trees.composites.Sequence.tick
         for i in index.composites:
             node = behaviours[i]
             cls = type(node)
             kind = known.get(cls)
             if kind is None:
-                kind = _kind(node) if cls.tick is sequence else known.setdefault(cls, _kind(node))
+                kind = _kind(node) if cls.tick in _SEQUENCE_TICKS else known.setdefault(cls, _kind(node))
             kinds[i] = kind
         self.trace = RunTrace(_NodeTable(index), limit=limit)
         self._index = index

@@ -942,3 +942,38 @@ def test_a_scenario_kept_is_given_back_without_reading_its_files_while_their_sta
     assert opened == []  # stat only: the read before took the stamps anew after hashing the same bytes
     (tmp_path / "r.rou.xml").write_text(ROUTES.replace('id="ego"', 'id="egg"'), encoding="utf-8")
     assert sorted(read_scenario(str(cfg)).vehicles) == ["egg"]  # a write changes the change time
+
+
+def test_a_scenario_kept_with_trusted_stamps_still_sees_its_files_real_paths(
+        tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+    """With every stamp trusted (the margin moved), a hit still checks each file's real path: a file named in a
+    subdirectory whose directory is moved out and replaced by a symbolic link keeps its stamp (renaming a
+    directory does not touch its files), so only the real path sees it; a file that is itself a symbolic link
+    inside the directory is followed, and one re-pointed outside is seen."""
+    from btgen_pytrees.systems.sumo import scenario as module
+
+    monkeypatch.setattr(module, "STAMP_MARGIN_NS", -10**12)  # as if the files were written long before
+    outside, folder = tmp_path / "outside", tmp_path / "scenario"
+    outside.mkdir()
+    folder.mkdir()
+    (folder / "sub").mkdir()
+    (folder / "sub" / "r.rou.xml").write_text(ROUTES, encoding="utf-8")
+    (folder / "road.net.xml").write_text(NET, encoding="utf-8")
+    (folder / "net.link.xml").symlink_to("road.net.xml")  # a link that stays inside: allowed
+    cfg = folder / "s.sumocfg"
+    cfg.write_text(CONFIG.replace("r.rou.xml", "sub/r.rou.xml").replace("road.net.xml", "net.link.xml"), encoding="utf-8")
+    first = read_scenario(str(cfg))
+    assert first.problems == () and read_scenario(str(cfg)) is first and read_scenario(str(cfg)) is first
+    (folder / "sub").rename(outside / "sub")
+    (folder / "sub").symlink_to(outside / "sub")  # the same file, the same stamp, now out of the directory
+    (problem,) = read_scenario(str(cfg)).problems
+    assert "leads outside the configuration's directory" in problem
+    (folder / "sub").unlink()
+    (outside / "sub").rename(folder / "sub")
+    second = read_scenario(str(cfg))
+    assert second.problems == () and read_scenario(str(cfg)) is second
+    (outside / "road.net.xml").write_text(NET, encoding="utf-8")
+    (folder / "net.link.xml").unlink()
+    (folder / "net.link.xml").symlink_to(outside / "road.net.xml")  # the same bytes, now out of the directory
+    (problem,) = read_scenario(str(cfg)).problems
+    assert "leads outside the configuration's directory" in problem

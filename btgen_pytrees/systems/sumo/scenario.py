@@ -356,20 +356,34 @@ def _unchanged(base: str, real_base: str, files: tuple[tuple[str, tuple[str, int
     for path, (real, size, digest, noted) in files:
         try:
             when = time.time_ns()
-            info = os.stat(path)
+            info = os.lstat(path)
+            link = stat.S_ISLNK(info.st_mode)
+            if link:
+                info = os.stat(path)
         except OSError:
             return False
         if info.st_size != size:  # cheap first: a changed size needs no reading
             return False
         stamp, taken = noted
         if stamp == _stamp(info) and info.st_ctime_ns < taken - STAMP_MARGIN_NS:  # type: ignore[operator]
-            if os.path.realpath(path) != real:
+            if _real_path(path, base, real_base, link) != real:
                 return False
             continue
         if _fingerprint(path) != (real, size, digest):
             return False
         noted[:] = [_stamp(info), when]  # the same bytes: their stamp may stand for them from now on
     return True
+
+
+def _real_path(path: str, base: str, real_base: str, link: bool) -> str:
+    """``os.path.realpath(path)``, given *real_base*, the real path of directory *base* just now, and whether
+    *path* is a symbolic link: a file named directly in *base* that is not a link is *real_base* joined with
+    its name (``realpath`` would ``lstat`` every component of *base* again); anything else asks ``realpath``."""
+    if not link:
+        head, name = os.path.split(path)
+        if head == base and name not in ("", ".", ".."):
+            return os.path.join(real_base, name)
+    return os.path.realpath(path)
 
 
 def read_scenario(config: str) -> Scenario:

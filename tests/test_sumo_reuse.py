@@ -410,3 +410,25 @@ def test_a_searchs_workers_keep_their_simulation_from_one_batch_to_the_next(tmp_
             run.pop("wall")
         outs.append(json.dumps(data, indent=2))
     assert outs[0] == outs[1]
+
+
+@needs_sumo
+def test_a_snapshot_is_written_only_when_its_text_changes(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Setting a kept simulation back loads the snapshot's text with the generators the last run drew from; when
+    that text is the one the snapshot file holds already (the runs of a search draw from the same lanes'
+    generators), the file is not written again - and each run still gives the bytes of a fresh start."""
+    from btgen_pytrees.systems.sumo import system as module
+
+    written: list[int] = []
+    write = module._File.write
+    monkeypatch.setattr(module._File, "write", lambda self, text: (written.append(len(text)), write(self, text))[1])
+    docs = settings(4, seed=3)
+    expected = fresh(docs, tmp_path)
+    with reuse_simulations():
+        for _ in range(3):  # (learns the generators the key's runs draw from, if this process has not yet,) starts
+            here(docs[0])  # with them held and sets them back: the snapshot file holds the restore's text
+        assert kept_simulation() is not None and written
+        del written[:]
+        for i in (1, 2, 3, 0, 2):
+            assert here(docs[i]) == expected[i], i
+        assert written == []  # the runs drew from the same generators: the same text every time

@@ -623,17 +623,30 @@ _FULL = "1000000"
 """SUMO's ``SAVE_ONLY_COUNT``: a generator drawn this often is saved as count and full state, not as count alone."""
 
 
-def _rngs(text: str) -> tuple[str, dict[str, str], str]:
-    """Split a state saved with ``--save-state.rng``: the text before the generators, each generator's saved
-    value (``default``, ``routeHandler``, ... and ``lane <i>``), the text after (without ``<edgeControl>``)."""
+def _rng_span(text: str) -> tuple[int, int, int]:
+    """Where the ``<rngState>`` element of a saved state begins, where its start tag ends, where it closes."""
     begin = text.find("<rngState")
     close = text.find("</rngState>", begin)
     if begin < 0 or close < 0:
         raise RuntimeError("SUMO saved no random number generators")
-    head_end = text.index(">", begin)
+    return begin, text.index(">", begin), close
+
+
+def _rng_values(text: str, span: tuple[int, int, int]) -> dict[str, str]:
+    """Each generator's saved value in the ``<rngState>`` element at *span* (see :func:`_rng_span`):
+    ``default``, ``routeHandler``, ... and ``lane <i>``."""
+    begin, head_end, close = span
     values = dict(_ATTRIBUTE.findall(text, begin + 9, head_end))
     values.update((f"lane {i}", value) for i, value in _LANE_RNG.findall(text, head_end, close))
-    begin = len(text[:begin].rstrip())
+    return values
+
+
+def _rngs(text: str) -> tuple[str, dict[str, str], str]:
+    """Split a state saved with ``--save-state.rng``: the text before the generators, each generator's saved
+    value (``default``, ``routeHandler``, ... and ``lane <i>``), the text after (without ``<edgeControl>``)."""
+    span = _rng_span(text)
+    values = _rng_values(text, span)
+    begin, close = len(text[: span[0]].rstrip()), span[2]
     return text[:begin], values, _EDGE_CONTROL.sub("", text[close + 11:], count=1)
 
 
@@ -705,6 +718,7 @@ class _Kept:
         self.start_state: dict[str, str] = {}  # the full state at time 0 of each generator it can set back
         self.now: dict[str, str] = {}  # what SUMO saves for each generator now (at the start of the run)
         self.drew: set[str] = set()  # generators the last run drew from: set back by restore()
+        self.loaded: str | None = None  # the text the snapshot file holds (only _load writes it; SUMO reads it)
 
     @classmethod
     def start(cls, lib: Any, args: list[str], key: tuple[Any, ...]) -> "_Kept":
@@ -737,13 +751,20 @@ class _Kept:
         return _rngs(self.probe.read())
 
     def _load(self, text: str) -> None:
-        self.snapshot.write(text)
+        """Load the state *text*; the snapshot file is written only when it does not hold that text already
+        (a run that drew from the same generators as the last one is set back with the same text)."""
+        if text != self.loaded:
+            self.loaded = None
+            self.snapshot.write(text)
+            self.loaded = text
         self.lib.simulation.loadState(self.snapshot.path)
 
     def check(self) -> bool:
         """After a run: note the generators it drew from; False if the simulation cannot be kept."""
         try:
-            _, values, _ = self._save()
+            self.lib.simulation.saveState(self.probe.path)
+            text = self.probe.read()
+            values = _rng_values(text, _rng_span(text))  # the generators only: what _save() splits off is not needed
         except Exception:  # noqa: BLE001
             return False
         if set(values) != set(self.now):

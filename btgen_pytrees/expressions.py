@@ -46,6 +46,10 @@ MAX_LENGTH = 1000
 """Longest accepted expression, in characters (keeps parsing and products bounded)."""
 
 FUNCTIONS: dict[str, Any] = {"abs": abs, "min": min, "max": max}
+_EVAL_GLOBALS: dict[str, Any] = {"__builtins__": {}, **FUNCTIONS}
+"""The globals :meth:`Expression.evaluate` runs its code with: no builtins, the functions (a name is looked up
+in the values first - no signal can be named as a function: :data:`RESERVED`). A checked expression stores no
+name, so the one dict serves every call."""
 RESERVED = frozenset({"true", "false", *FUNCTIONS, *keyword.kwlist})
 """Words that cannot be used as signal names (no expression could read them)."""
 
@@ -107,11 +111,14 @@ class Expression:
         """
         if not (values.keys() >= self.names if type(values) is dict else all(n in values for n in self.names)):
             raise ExpressionError(f"signal {self._missing(values)!r} has no value")
-        scope = {**FUNCTIONS, **values}
-        for alias, name in self._aliases:
-            scope[alias] = values[name]
+        scope: Mapping[str, Any] = values  # the functions are the globals': no dict of them made per call
+        aliases = self._aliases
+        if aliases:
+            scope = dict(values)
+            for alias, name in aliases:
+                scope[alias] = values[name]
         try:
-            return eval(self._code, {"__builtins__": {}}, scope)  # noqa: S307 - checked AST
+            return eval(self._code, _EVAL_GLOBALS, scope)  # noqa: S307 - checked AST
         except (ArithmeticError, TypeError, ValueError) as exc:
             raise ExpressionError(f"{exc} in {self.source!r}") from None
 

@@ -136,6 +136,7 @@ class Environment:
         self._done_listeners: list[Callable[[str], None]] = []
         self._flags = KeyMetaData()  # shared by the completion flags' keys (see the module docstring)
         self._clients: list[Client] = []
+        self._keys: dict[tuple[str, ...], tuple[tuple[str, str], ...]] = {}  # values(): names -> (name, key) pairs
 
     # -- keys and clients ----------------------------------------------
     def signal_key(self, name: str) -> str:
@@ -259,8 +260,12 @@ class Environment:
         if client is not None and Blackboard.activity_stream is not None:
             return {n: getattr(client, prefix + n) for n in names if prefix + n in storage}
         found = {}
-        for n in names:  # one key made per name (every oracle and `until` reads its values every tick)
-            key = prefix + n
+        keys = self._keys.get(names) if type(names) is tuple else None  # a leaf's names: the same tuple every tick
+        if keys is None:
+            keys = tuple((n, prefix + n) for n in names)
+            if type(names) is tuple and len(self._keys) < 1024:
+                self._keys[names] = keys
+        for n, key in keys:  # every oracle and `until` reads its values every tick: no key made per name
             if key in storage:
                 found[n] = storage[key]
         return found

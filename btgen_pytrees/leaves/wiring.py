@@ -35,6 +35,11 @@ from .node import NODE_TICK, STATUSES, Node
 
 __all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
 
+_logging = py_trees.logging
+_INFO = py_trees.logging.Level.INFO
+# the statuses as module constants: ``Status.SUCCESS`` is a look-up on the Enum class (~80 ns), every tick
+_SUCCESS, _FAILURE, _RUNNING, _INVALID = Status.SUCCESS, Status.FAILURE, Status.RUNNING, Status.INVALID
+
 EXECUTE = None
 """``Completion(marks=EXECUTE)`` marks the whole execute subtree."""
 
@@ -76,7 +81,7 @@ class RunStart(Node):
         self.env.start_run(self.client)
         signals = self.env.initial_signals
         self.feedback_message = ", ".join(f"{k}={v!r}" for k, v in signals.items()) or "no signals"
-        return Status.SUCCESS
+        return _SUCCESS
 
 
 class Completion(py_trees.decorators.Decorator, Node):
@@ -99,9 +104,9 @@ class Completion(py_trees.decorators.Decorator, Node):
         yield the node - without building ``list(Status)`` or a debug line nobody prints (as :class:`Node`),
         nor a generator for a child that is one of the package's leaves (its ``tick_now``, then the child
         yielded here: :class:`~btgen_pytrees.leaves.composites.Sequence`)."""
-        if py_trees.logging.level < py_trees.logging.Level.INFO:
+        if _logging.level < _INFO:
             self.logger.debug(f"{self.__class__.__name__}.tick()")
-        if self.status != Status.RUNNING:
+        if self.status != _RUNNING:
             self.initialise()
         decorated = self.decorated
         if type(decorated).tick is NODE_TICK:
@@ -112,15 +117,15 @@ class Completion(py_trees.decorators.Decorator, Node):
         new_status = self.update()
         if new_status not in STATUSES:
             self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
-            new_status = Status.INVALID
-        if new_status != Status.RUNNING:
+            new_status = _INVALID
+        if new_status != _RUNNING:
             self.stop(new_status)
         self.status = new_status
         yield self
 
     def update(self) -> Status:
         status = self.decorated.status
-        if status == Status.SUCCESS:
+        if status == _SUCCESS:
             if self.marks is None:
                 self.env.mark_execute_done()
             else:
@@ -168,8 +173,8 @@ class Trigger(Node):
             fired = cursor == len(waits_for)
         if fired:
             self.feedback_message = "fired"
-            return Status.SUCCESS
-        return Status.RUNNING
+            return _SUCCESS
+        return _RUNNING
 
 
 class WakingParallel(Parallel):
@@ -237,7 +242,7 @@ class WakingParallel(Parallel):
                     for p in trigger.waits_for:
                         waiters.setdefault(p, []).append(i)
             self._sleeper, self._waiters = sleeper, waiters
-        pending = [i for i, child in enumerate(children) if child.status != Status.SUCCESS]
+        pending = [i for i, child in enumerate(children) if child.status != _SUCCESS]
         self._succeeded = len(children) - len(pending)
         self._queued = bytearray(len(children))
         for i in pending:
@@ -258,10 +263,10 @@ class WakingParallel(Parallel):
     @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         children = self.children
-        if self.status != Status.RUNNING:
+        if self.status != _RUNNING:
             for child in children:
-                if child.status != Status.INVALID:
-                    child.stop(Status.INVALID)
+                if child.status != _INVALID:
+                    child.stop(_INVALID)
             self.current_child = None
             self.initialise()
             self._prepare(everything=True)
@@ -269,7 +274,7 @@ class WakingParallel(Parallel):
             self._prepare(everything=False)
         if not children:
             self.current_child = None
-            self.stop(Status.SUCCESS)
+            self.stop(_SUCCESS)
             yield self
             return
         heap, queued, sleeper = self._heap, self._queued, self._sleeper
@@ -285,7 +290,7 @@ class WakingParallel(Parallel):
             queued[i] = 0
             self._at = i
             child = children[i]
-            if child.status == Status.SUCCESS:
+            if child.status == _SUCCESS:
                 continue
             if type(child).tick is NODE_TICK:  # a leaf of ours (see Parallel.tick)
                 child.tick_now()
@@ -293,27 +298,27 @@ class WakingParallel(Parallel):
             else:
                 yield from child.tick()
             status = child.status
-            if status == Status.SUCCESS:
+            if status == _SUCCESS:
                 self._succeeded += 1
-            elif status == Status.FAILURE:
+            elif status == _FAILURE:
                 if failed < 0:
                     failed = i
             elif not queued[i]:
                 trigger = sleeper[i]
-                if trigger is None or trigger.status != Status.RUNNING:
+                if trigger is None or trigger.status != _RUNNING:
                     queued[i] = 1
                     self._next.append(i)
         self._passing = False
         self._at = len(children)
         self._heap, self._next = self._next, heap  # heap is empty: it collects wakes until the next pass
-        new_status = Status.RUNNING
+        new_status = _RUNNING
         self.current_child = children[-1]
         if failed >= 0:
-            new_status = Status.FAILURE
+            new_status = _FAILURE
             self.current_child = children[failed]
         elif self._succeeded == len(children):
-            new_status = Status.SUCCESS
-        if new_status != Status.RUNNING:
+            new_status = _SUCCESS
+        if new_status != _RUNNING:
             self.stop(new_status)
         self.status = new_status
         yield self
@@ -353,7 +358,7 @@ class OrMember(py_trees.decorators.Decorator, Node):
 
     @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
-        if self.status != Status.RUNNING:
+        if self.status != _RUNNING:
             self.initialise()
         if not self.latched:
             decorated = self.decorated
@@ -362,14 +367,14 @@ class OrMember(py_trees.decorators.Decorator, Node):
                 yield decorated
             else:
                 yield from decorated.tick()
-            if self.decorated.status == Status.FAILURE:
+            if self.decorated.status == _FAILURE:
                 self.latched = True
                 if not self.env.is_failed(self.member):
                     self.env.mark_failed(self.member)
                     storage = Blackboard.storage
                     storage[self._failed_count] = storage.get(self._failed_count, 0) + 1
         new_status = self.update()
-        if new_status != Status.RUNNING:
+        if new_status != _RUNNING:
             self.stop(new_status)
         self.status = new_status
         yield self
@@ -379,6 +384,6 @@ class OrMember(py_trees.decorators.Decorator, Node):
             return self.decorated.status
         if Blackboard.storage.get(self._failed_count, 0) >= len(self.group):
             self.feedback_message = "every member of the group failed"
-            return Status.FAILURE
+            return _FAILURE
         self.feedback_message = "failed; the group may still pass"
-        return Status.RUNNING
+        return _RUNNING

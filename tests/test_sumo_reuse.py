@@ -12,6 +12,7 @@ import multiprocessing
 import os
 import pathlib
 import random
+import re
 import subprocess
 import sys
 from typing import Any
@@ -416,18 +417,22 @@ def test_a_searchs_workers_keep_their_simulation_from_one_batch_to_the_next(tmp_
 def test_a_snapshot_is_written_only_when_its_text_changes(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Setting a kept simulation back loads the snapshot's text with the generators the last run drew from; when
     that text is the one the snapshot file holds already (the runs of a search draw from the same lanes'
-    generators), the file is not written again - and each run still gives the bytes of a fresh start."""
+    generators), the file is not written again - and each run still gives the bytes of a fresh start. Each
+    generator set back is loaded with its full state, then with a count of 0 (its counter 0 again, the
+    generator untouched), so that the save after the next run writes its count, not its full state."""
     from btgen_pytrees.systems.sumo import system as module
 
-    written: list[int] = []
+    written: list[str] = []
     write = module._File.write
-    monkeypatch.setattr(module._File, "write", lambda self, text: (written.append(len(text)), write(self, text))[1])
+    monkeypatch.setattr(module._File, "write", lambda self, text: (written.append(text), write(self, text))[1])
     docs = settings(4, seed=3)
     expected = fresh(docs, tmp_path)
     with reuse_simulations():
         for _ in range(3):  # (learns the generators the key's runs draw from, if this process has not yet,) starts
             here(docs[0])  # with them held and sets them back: the snapshot file holds the restore's text
         assert kept_simulation() is not None and written
+        full, zero = re.findall(r"<rngState>(.*?)</rngState>", written[-1])  # the two lanes' generators the cut-in draws from
+        assert re.findall(r'index="(\d+)" state="1\d{6,} ', full) == re.findall(r'index="(\d+)" state="0"', zero) != []
         del written[:]
         for i in (1, 2, 3, 0, 2):
             assert here(docs[i]) == expected[i], i

@@ -778,13 +778,20 @@ class _Kept:
         return True
 
     def restore(self) -> bool:
-        """Set the simulation back to time 0; False if SUMO refused (then close it)."""
+        """Set the simulation back to time 0; False if SUMO refused (then close it).
+
+        Each generator set back is loaded twice, in this order: its full state at time 0 (which sets its
+        counter to a million or more), then a count of 0, which SUMO loads as "draw 0 more" - the counter is
+        0 again and the generator untouched. A generator whose counter is below a million is saved as that
+        count alone, so the save after the run (:meth:`check`) writes and reads a count for it instead of
+        its full state (about 7,000 characters of numbers each)."""
         back = {name: self.start_state[name] for name in self.now if name in self.drew}
+        zero = dict.fromkeys(back, "0")
         try:
-            self._load(self.before + _rng_element(back) + self.after)
+            self._load(self.before + _rng_element(back) + _rng_element(zero) + self.after)
         except Exception:  # noqa: BLE001
             return False
-        self.now.update(back)
+        self.now.update(zero)
         self.drew = set()
         return True
 

@@ -126,9 +126,13 @@ class Parallel(py_trees.composites.Parallel):
                     self.current_child = child
                     break
         elif isinstance(policy, _SELECTED):
-            if all([c.status == _SUCCESS for c in policy.children]):
+            selected = policy.children
+            for child in selected:  # py_trees' all([...]) without the list (reading a status changes nothing)
+                if child.status != _SUCCESS:
+                    break
+            else:
                 new_status = _SUCCESS
-                self.current_child = policy.children[-1]
+                self.current_child = selected[-1]
         else:
             raise RuntimeError(f"this parallel has been configured with an unrecognised policy [{type(policy)}]") from None
         if new_status != _RUNNING:  # finished: children still RUNNING are stopped with it

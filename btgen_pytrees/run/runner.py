@@ -125,22 +125,30 @@ def run_tree(
             return collector.report()
         system.start(env)
         scene, places = _scene(system, collector)
+        now_of, publish = system.now, system.publish
         for k in range(stop + 1):
-            then = _system_time(case, system, then)
+            now = now_of()
+            if type(now) is float and now >= then and now - now == 0.0:  # the usual answer, checked inline
+                then = now
+            else:
+                then = _system_time(case, now, then)
             clock.set(then)
-            system.publish(env)
-            collector.initialise()
+            publish(env)
+            if record:  # the collector's hooks only reach its recorder, which it has only when it records
+                collector.initialise()
             try:
                 visit(root.tick())  # the collector sees every node the tick yields (Collector.run, inline)
             except BaseException as exc:  # noqa: BLE001 - a leaf raised (SystemExit, a SystemFailure too): report it
                 if is_interrupt(exc):
                     raise
-                collector.finalise()
+                if record:
+                    collector.finalise()
                 if scene is not None:
                     scene.record(k, places())
                 collector.raised(exc)
                 break
-            collector.finalise()
+            if record:
+                collector.finalise()
             if scene is not None:
                 scene.record(k, places())
             if progress is not None:
@@ -221,9 +229,8 @@ def _spent(case: TestCase, budget: int, ticks: int) -> str:
             f"(entries + criteria + 10), with no verdict yet; raise it with --max-work N")
 
 
-def _system_time(case: TestCase, system: System, then: float) -> float:
-    """``system.now()``, checked: a finite number of seconds, not before *then* (the last tick's)."""
-    now = system.now()
+def _system_time(case: TestCase, now: Any, then: float) -> float:
+    """*now*, what ``system.now()`` returned, checked: a finite number of seconds, not before *then* (the last tick's)."""
     if type(now) is float and now >= then and now - now == 0.0:  # the usual answer, checked without an ABC's isinstance
         return now
     if isinstance(now, Real) and not isinstance(now, bool):

@@ -1,4 +1,4 @@
-"""The generator's Parallels: py_trees' own ``Parallel``, ticked without its per-tick overheads.
+"""The generator's Parallels and Sequences: py_trees' own classes, ticked without their per-tick overheads.
 
 :class:`Parallel` *is* a ``py_trees.composites.Parallel`` (same ``__init__``, ``setup``,
 ``stop``, policy, children, ``current_child``; views, visitors and py_trees' display see

@@ -329,7 +329,7 @@ def test_the_gp_batch_goes_where_failing_is_likely_and_spreads() -> None:
 def test_the_gp_finds_the_island_in_its_second_batch() -> None:
     """island_2d (the benchmark's 2-parameter case, failing on 1 % of the box): the model's first batch
     after the 8 space-filling runs meets the failure, for each of five seeds (the Sobol sequence alone
-    does not, for any of them)."""
+    meets it in one of them, by chance, at its fourth point)."""
     from btgen_pytrees.falsify import Search, Settings, Space
     from btgen_pytrees.falsify.jobs import timed
     from btgen_pytrees.falsify.margins import row_margins
@@ -348,7 +348,7 @@ def test_the_gp_finds_the_island_in_its_second_batch() -> None:
             settings = Settings(method=method, seed=seed, budget=16, batch=8, stop="first")
             found[method, seed] = Search(Space.of(sweep.variations), sweep.defaults, settings, evaluate, {"others": ("&&", ["F1"])}).run().first_failure
     assert all(found["gp", seed] is not None and found["gp", seed] <= 16 for seed in range(5)), found
-    assert not any(found["sobol", seed] for seed in range(5)), found
+    assert sum(found["sobol", seed] is not None for seed in range(5)) <= 1, found
 
 
 def test_the_gp_start_runs_the_boxs_opposite_corners_then_sobol_points(tmp_path: pathlib.Path) -> None:
@@ -433,15 +433,38 @@ def test_a_search_stopped_by_sigterm_in_its_own_code_says_sigterm() -> None:
         assert search.interrupted and search.signum == expected and len(search.runs) == 8
 
 
-@pytest.mark.filterwarnings("ignore:The balance properties")
-def test_a_sobol_search_runs_scipys_scrambled_sobol_points() -> None:
-    """The ``sobol`` method runs the points of SciPy's ``qmc.Sobol(d, scramble=True, seed=seed)`` in its
-    order, each snapped to the values that ran."""
+def test_a_sobol_search_runs_sobols_sequence_digitally_shifted() -> None:
+    """The ``sobol`` method runs SciPy's (unscrambled) Sobol points in their order, each XORed with one random
+    shift drawn from the seed (a random digital shift: the points stay a net, every coordinate of the first 2**m
+    points falls once into each of the 2**m equal intervals), each snapped to the values that ran; another seed
+    shifts them elsewhere."""
+    import numpy as np
     from scipy.stats import qmc
 
+    from btgen_pytrees.falsify.sampler import Sampler
+
+    def asked(sampler: Sampler, batches: int) -> list[list[float]]:
+        points = []
+        for _ in range(batches):
+            points += sampler.ask(8)
+            sampler.tell([1.0] * 8)
+        return points
+
+    base = (qmc.Sobol(d=4, scramble=False).random_base2(5) * 2**30).astype(np.int64)
+    space = _island_search("island_4d", method="sobol", seed=5, budget=24, batch=8).space
+    shifts = []
+    for seed in (5, 6):
+        points = np.array(asked(Sampler(space, "sobol", seed=seed, start=0, batch=8), 4))
+        bits = (points * 2**30).astype(np.int64)
+        assert (points * 2**30 == bits).all()
+        shift = bits ^ base
+        assert (shift == shift[0]).all()  # one shift for every point
+        assert all(sorted((points[:, j] * 32).astype(int).tolist()) == list(range(32)) for j in range(4))
+        shifts.append(shift[0].tolist())
+    assert shifts[0] != shifts[1]
     search = _island_search("island_4d", method="sobol", seed=5, budget=24, batch=8).run()
-    expected = qmc.Sobol(d=4, scramble=True, seed=5).random(24)
-    assert [r.unit for r in search.runs] == [search.space.snapped(p.tolist())[0] for p in expected]
+    expected = asked(Sampler(search.space, "sobol", seed=5, start=0, batch=8), 3)
+    assert [r.unit for r in search.runs] == [search.space.snapped(p)[0] for p in expected]
 
 
 def test_a_batch_that_is_the_quadratics_point_alone_draws_what_a_scored_one_draws() -> None:

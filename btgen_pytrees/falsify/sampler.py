@@ -1,11 +1,13 @@
 """``ask(n)`` / ``tell(values)``: the search's sampler, over our Gaussian-process model, the ``cmaes``
 library and Optuna's samplers.
 
-Every method but ``random`` starts with a *space-filling* stage: a scrambled
-Sobol sequence over the unit box (:mod:`.space`; SciPy's ``qmc.Sobol``, the
-sequence Optuna's ``QMCSampler`` draws, without its cost per point), so the
-first runs cover the box evenly and give the objective's scale (``gp``'s start
-runs the box's two opposite corners first, when it has at least 4 runs). Then:
+Every method but ``random`` starts with a *space-filling* stage: Sobol's
+sequence over the unit box (:mod:`.space`; SciPy's ``qmc.Sobol`` points, made
+once per process and dimension) randomised by a *digital shift* drawn from the
+seed (every point's bits XORed with the same random bits: the points stay a
+net, each search's are elsewhere), so the first runs cover the box evenly and
+give the objective's scale (``gp``'s start runs the box's two opposite corners
+first, when it has at least 4 runs). Then:
 
 * ``gp`` - a Gaussian-process model of the objective (:mod:`.surrogate`),
   refitted after every batch; each batch is the quadratic model's minimum
@@ -27,14 +29,16 @@ runs the box's two opposite corners first, when it has at least 4 runs). Then:
 * ``auto`` - ``gp`` when every parameter is continuous, ``tpe`` when there is a list.
 
 Points are asked in batches and told in the order they were asked, so a seed
-gives the same search whatever the number of workers. Optuna's, NumPy's and
-SciPy's generators are seeded from the seed; nothing global is changed (Optuna's log
-level is raised only around its calls, and put back).
+gives the same search whatever the number of workers. Optuna's and NumPy's
+generators and the Sobol points' shift are seeded from the seed; nothing global is
+changed (Optuna's log level is raised only around its calls, and put back; warnings are
+silenced only around the calls into Optuna and the ``cmaes`` library).
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import warnings
 from typing import Any, Callable, Iterator, Sequence
@@ -51,6 +55,23 @@ SIGMA0 = 0.2
 """CMA-ES's first step size, as a fraction of the unit box."""
 RESTART_SIGMA = 0.3
 """The step size of a restart (a new region: wider)."""
+
+
+SOBOL_BITS = 30
+"""Bits of a Sobol point's coordinates (SciPy's default)."""
+
+
+@functools.lru_cache(maxsize=16)
+def sobol_points(d: int, m: int) -> Any:
+    """The first 2**m points of Sobol's sequence in *d* dimensions, unscrambled, as integers of
+    :data:`SOBOL_BITS` bits (SciPy's ``qmc.Sobol``: its direction numbers; made once per process and size,
+    never written)."""
+    import numpy
+    from scipy.stats import qmc
+
+    points = (qmc.Sobol(d=d, scramble=False, bits=SOBOL_BITS).random_base2(m) * 2.0**SOBOL_BITS).astype(numpy.int64)
+    points.flags.writeable = False
+    return points
 
 
 def _legacy_seed(seed: int) -> int:
@@ -89,7 +110,7 @@ def resolve_method(method: str, space: Space) -> str:
 
 @contextlib.contextmanager
 def _quiet(optuna: Any) -> Iterator[None]:
-    """Warnings off (Optuna's experimental ones, SciPy's note on a Sobol sample's size) for our calls only,
+    """Warnings off (Optuna's experimental ones, the ``cmaes`` library's) for our calls only,
     and Optuna's INFO lines ("A new study created") when *optuna* is given: the calls that reach Optuna
     pass it (setting its log level costs more than a model's batch)."""
     level = optuna.logging.get_verbosity() if optuna is not None else None
@@ -132,21 +153,15 @@ class Sampler:
         self._unit: list[list[float]] = []  # each run's continuous coordinates (what the models see)
         self._asked: list[tuple[str, Any, list[float]]] = []
         self._names = [d.name for d in space.dimensions]
-        dists = optuna.distributions
-        self._dists = {d.name: (dists.FloatDistribution(0.0, 1.0) if d.continuous else
-                                dists.CategoricalDistribution(list(range(len(d.choices))))) for d in space.dimensions}  # fmt: skip
         self._study: Any = None
-        self._sobol: Any = None
         if self.method == "random":
             with _quiet(optuna):
                 self._study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=_legacy_seed(seed)))
-        else:  # the Sobol sequence Optuna's QMCSampler draws, from SciPy directly (a fraction of its cost per point)
-            from scipy.stats import qmc
-
-            self._sobol = qmc.Sobol(d=len(space.dimensions), scramble=True, seed=seed)
         self._stage = "start" if self.start else self.method
         self._extremes = self._corners() if self.method == "gp" and self.start >= 4 else []
         self._rng = numpy.random.default_rng(seed)
+        self._shift = self._rng.integers(0, 2**SOBOL_BITS, size=len(space.dimensions))  # the Sobol points' digital shift
+        self._sobol = 0  # Sobol points drawn
         self._cma: Any = None
         self._queue: list[list[float]] = []
         self._model = Model(self._rng)
@@ -159,6 +174,13 @@ class Sampler:
         """Points the searcher should not start from (e.g. inside a known failure cluster)."""
 
     # -- the interface ------------------------------------------------------------------------------
+
+    @functools.cached_property
+    def _dists(self) -> dict[str, Any]:
+        """Each parameter's Optuna distribution (made when a stage asks Optuna: ``tpe`` and ``random``)."""
+        dists = self._optuna.distributions
+        return {d.name: (dists.FloatDistribution(0.0, 1.0) if d.continuous else
+                         dists.CategoricalDistribution(list(range(len(d.choices))))) for d in self.space.dimensions}  # fmt: skip
 
     @property
     def model(self) -> Model:
@@ -175,7 +197,8 @@ class Sampler:
         if self._stage == "start" and len(self.xs) + len(self._asked) >= self.start:
             self._switch(self.method)
         points = []
-        with _quiet(self._optuna if self._study is not None and self._stage in ("tpe", "random") else None):
+        optuna = self._study is not None and self._stage in ("tpe", "random")
+        with _quiet(self._optuna if optuna else None) if optuna or self._stage == "cmaes" else contextlib.nullcontext():
             for _ in range(n):
                 if self._stage == "cmaes" and self.batch > 1 and not self._asked:  # one model point per batch
                     x = self._model_point()
@@ -270,8 +293,10 @@ class Sampler:
         return [[0.0] * len(dims), [1.0 if d.continuous else float(len(d.choices) - 1) for d in dims]]
 
     def _sobol_point(self) -> list[float]:
-        """The next point of the scrambled Sobol sequence (a list parameter: its choice at that fraction)."""
-        u = self._sobol.random(1)[0]
+        """The next point of the Sobol sequence, digitally shifted (a list parameter: its choice at that fraction)."""
+        k = self._sobol
+        self._sobol += 1
+        u = (sobol_points(len(self.space.dimensions), max(6, k.bit_length()))[k] ^ self._shift) / 2.0**SOBOL_BITS
         return [float(v) if d.continuous else float(min(len(d.choices) - 1, int(v * len(d.choices))))
                 for d, v in zip(self.space.dimensions, u)]  # fmt: skip
 

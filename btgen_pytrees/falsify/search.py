@@ -30,7 +30,6 @@ Each bisection round runs a batch: ``batch`` points spread inside the interval
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Generator, Mapping, Sequence
@@ -45,7 +44,8 @@ __all__ = ["Settings", "Run", "Cluster", "Boundary", "Search", "RADIUS", "FAILIN
 RADIUS = 0.1
 """Failures closer than this (a fraction of the unit box's diagonal) belong to one cluster."""
 
-FAILING = ("fail", "timeout", "error")
+FAILING = frozenset(("fail", "timeout", "error"))
+_NONE: Mapping[str, float | None] = {}
 _SAMPLED = ("start", "search")
 
 
@@ -83,15 +83,15 @@ class Run:
     parameters: dict[str, Value]
     row: dict[str, Any]
     objective: float | None = None
+    failed: bool = field(init=False)
+    """Whether the verdict is ``fail``, ``timeout`` or ``error`` (a run's row is not changed once told)."""
+
+    def __post_init__(self) -> None:
+        self.failed = self.row.get("verdict", "error") in FAILING
 
     @property
     def verdict(self) -> str:
         return str(self.row.get("verdict", "error"))
-
-    @functools.cached_property
-    def failed(self) -> bool:
-        """Whether the verdict is ``fail``, ``timeout`` or ``error`` (a run's row is not changed once told)."""
-        return self.verdict in FAILING
 
 
 @dataclass
@@ -210,8 +210,7 @@ class Search:
 
     def _objective(self, run: Run) -> float | None:
         """The scaled, combined margin; at most 0 for a failing run; None for an error without margins."""
-        margins: Mapping[str, float | None] = run.row.get("margins") or {}
-        value = combine(margins, self.groups, self.scales, self._graded)
+        value = combine(run.row.get("margins") or _NONE, self.groups, self.scales, self._graded)
         if run.failed:
             return 0.0 if value is None or value > 0 else value
         return value

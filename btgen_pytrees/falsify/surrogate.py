@@ -7,12 +7,13 @@ It is ordinary kriging on the unit box, small enough to refit every batch:
   one length scale per continuous parameter (so the model is not separable: the
   kernel couples the parameters, and a parameter the objective hardly depends on
   gets a long scale). The scales maximise the profile likelihood over a few
-  candidates: at the first fit a range of equal scales, then each parameter's
-  halved and doubled; later fits start from the previous scales and try only
-  each parameter's scale times 0.6 and 1.6 (the model follows the runs without
-  a full search every batch). The scales are fitted at every batch while the
-  model sees every run (up to :data:`KEEP`), then once the runs told have grown
-  by :data:`REFIT`;
+  candidates, scored a round at a time: at the first fit a range of equal
+  scales, then the best of them with each parameter's halved and with it
+  doubled; later fits the previous scales and each parameter's times 0.6 (or
+  1.6, on alternate fits: the model follows the runs without a full search
+  every batch); then, when two or more parameters gained, all their changes
+  at once. The scales are fitted at every batch while the model sees every run
+  (up to :data:`KEEP`), then once the runs told have grown by :data:`REFIT`;
 * a point's **acquisition** is its probability of failing under the model,
   P(objective < 0) = Phi(-mean / sd): high near runs that came close to failing
   and far from every run (exploration), with no weight to tune;
@@ -32,7 +33,8 @@ as NumPy's and SciPy's wrappers cost more than these small matrices' arithmetic)
 :func:`quadratic_minimum` is the minimum of a quadratic model fitted to the best
 runs (as in lq-CMA-ES); with ``check`` it is given only when the model ranks its
 own runs (leave-one-out, Kendall's tau of at least :data:`TRUST`).
-NumPy and SciPy (the ``search`` extra) are imported where they are used.
+NumPy and SciPy (the ``search`` extra) are imported once, when the first model
+is made (an import statement per batch cost more than the batch's arithmetic).
 """
 
 from __future__ import annotations
@@ -58,6 +60,8 @@ _SPREAD = (0.02, 0.05, 0.1, 0.2)
 """Distances (standard deviations, in the unit box) of the candidates around the best runs."""
 _FIRST = (0.05, 0.1, 0.2, 0.35, 0.6, 1.0)
 _NUGGET = 1e-6
+_EPS = 2.220446049250313e-16
+"""``numpy.finfo(float).eps``."""
 _LONGEST = 4.0
 
 
@@ -65,20 +69,19 @@ class Model:
     """The model's state between batches (its length scales) and its generator."""
 
     def __init__(self, rng: Any):
+        self._np, self._lapack, self._ndtr = _libraries()
         self.rng = rng
         self.scales: Any = None
         self.fitted = 0
         """How many runs had been told when the scales were last fitted."""
+        self.refits = 0
 
     def propose(self, X: Sequence[Sequence[float]], y: Sequence[float], n: int, first: Any = None) -> list[list[float]]:
         """*n* points of the unit box most likely to fail (objective < 0) under the model fitted to the
         runs *X* (unit points, continuous coordinates) with objectives *y*; the most likely first
         (*first*, if given, is taken first whatever its score: the others spread around it).
         Uniform points when fewer than two runs are known."""
-        import numpy as np
-        from scipy.linalg import lapack
-        from scipy.special import ndtr
-
+        np, lapack, ndtr = self._np, self._lapack, self._ndtr
         rng = self.rng
         Xa, ya = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
         d = Xa.shape[1] if Xa.ndim == 2 else 0
@@ -86,12 +89,12 @@ class Model:
             return [[float(u) for u in row] for row in rng.random((n, d))]
         told = len(ya)
         if len(ya) > KEEP:  # the best half and the most recent others
-            order = np.argsort(ya, kind="stable")
+            order = ya.argsort(kind="stable")
             best = set(order[: KEEP // 2].tolist())
             recent = [i for i in range(len(ya) - 1, -1, -1) if i not in best][: KEEP - len(best)]
             keep = sorted(best | set(recent))
             Xa, ya = Xa[keep], ya[keep]
-        mu = float(ya.sum()) / len(ya)
+        mu = float(np.add.reduce(ya)) / len(ya)  # ufuncs' and arrays' own methods: NumPy's Python-level wrappers (sum, argsort, argmax) cost more than these arrays' work
         r = ya - mu
         sq = ((Xa[:, None, :] - Xa[None, :, :]) ** 2).reshape(-1, d)  # (n x n) x d
         L = None
@@ -111,7 +114,7 @@ class Model:
         a = inverse @ r
         s2 = max(float(a @ a) / len(r), 1e-300)
         alpha = inverse.T @ a
-        ranked = np.argsort(ya, kind="stable")[:4]
+        ranked = ya.argsort(kind="stable")[:4]
         turn, spread = _pattern(m_local, len(ranked))
         centres = Xa[ranked[turn]]
         # written in place into one array (the same values as the sums and products spelt out: a small
@@ -127,16 +130,16 @@ class Model:
         if first is not None:
             C[m] = first
         Xs, Cs = Xa / self.scales, C / self.scales
-        cc = (Cs * Cs).sum(axis=1)
+        cc = (Cs * Cs) @ _ones(d)  # each row's squared norm: a product, where a reduction along a short axis is slow
         k = Xs @ Cs.T  # n x m: exp(x.c - |x|^2/2 - |c|^2/2), at most 1
-        k -= 0.5 * (Xs * Xs).sum(axis=1)[:, None]
+        k -= 0.5 * np.add.reduce(Xs * Xs, axis=1)[:, None]
         k -= 0.5 * cc
         np.minimum(k, 0.0, out=k)
         np.exp(k, out=k)
         V = inverse @ k
         mean = k.T @ alpha
         mean += mu
-        var = (V * V).sum(axis=0)
+        var = np.add.reduce(V * V, axis=0)
         np.subtract(1.0, var, out=var)
         np.maximum(var, 1e-12, out=var)  # in units of s2
         sd = math.sqrt(s2)
@@ -145,7 +148,7 @@ class Model:
             score = ndtr(-mean / (sd * np.sqrt(var)))
             if chosen:
                 score[chosen] = -1.0
-            j = len(C) - 1 if first is not None and not chosen else int(np.argmax(score))
+            j = len(C) - 1 if first is not None and not chosen else int(score.argmax())
             chosen.append(j)
             if len(chosen) == n:  # the batch is complete: nothing more to believe
                 break
@@ -155,43 +158,43 @@ class Model:
                 row = cov / math.sqrt(float(var[j]))
                 var = np.maximum(var - row * row, 1e-12)
                 V = np.concatenate([V, row[None, :]])
-        return C[chosen].tolist()  # type: ignore[no-any-return]
+        return [C[j].tolist() for j in chosen]
 
     def _scales(self, np: Any, lapack: Any, sq: Any, r: Any, d: int) -> tuple[Any, Any]:
         """The length scales with the best profile likelihood among a few candidates, and the Cholesky
-        factor of their correlation matrix (None when no candidate's factored)."""
+        factor of their correlation matrix (None when no candidate's factored). Candidates are scored a
+        round at a time (:func:`_round`): at the first fit the equal scales of :data:`_FIRST`, then the best
+        of them with each parameter's scale halved and doubled; at a later fit the previous scales and each
+        parameter's times 0.6 or 1.6 (on alternate fits); then, when two or more parameters gained, all
+        their changes at once."""
         best: tuple[float, Any, Any] = (-math.inf, None, None)
-        nugget = _NUGGET * np.eye(len(r))  # added whole: + 0.0 off the diagonal changes nothing, one call instead of a strided one
         if self.scales is None or len(self.scales) != d:
-            for s in _FIRST:
-                best = self._better(np, lapack, best, np.full(d, s), sq, r, nugget)
-            factors = (0.5, 2.0)
+            best = _round(np, lapack, sq, r, [np.full(d, s) for s in _FIRST], best)[0]
+            base, factors, rounds = best[1], (0.5, 2.0), []
         else:
-            best = self._better(np, lapack, best, self.scales.copy(), sq, r, nugget)
-            factors = (0.6, 1.6)
-        for i in range(d if d > 1 else 0):
-            base = best[1]
+            self.refits += 1
+            base, factors, rounds = self.scales, ((0.6,) if self.refits % 2 else (1.6,)), [self.scales]
+        if d == 1:
+            return _round(np, lapack, sq, r, rounds, best)[0][1:] if rounds else best[1:]
+        trials = []
+        for i in range(d):
             for f in factors:
                 trial = base.copy()
                 trial[i] = min(_LONGEST, trial[i] * f)
-                best = self._better(np, lapack, best, trial, sq, r, nugget)
+                trials.append(trial)
+        best, lls = _round(np, lapack, sq, r, rounds + trials, best)
+        start = lls[0] if rounds else best[0] if best[2] is not None else -math.inf
+        gains = {}
+        for j, (t, ll) in enumerate(zip(trials, lls[len(rounds):])):
+            i = j // len(factors)
+            if ll > start + 1e-9 and ll > gains.get(i, (-math.inf,))[0]:
+                gains[i] = (ll, t[i])
+        if len(gains) > 1:  # the gains at once: one more candidate
+            joint = base.copy()
+            for i, (_, s) in gains.items():
+                joint[i] = s
+            best = _round(np, lapack, sq, r, [joint], best)[0]
         return best[1], best[2]
-
-    @staticmethod
-    def _better(np: Any, lapack: Any, best: tuple[float, Any, Any], scales: Any, sq: Any, r: Any, nugget: Any) -> tuple[float, Any, Any]:
-        """*best* or *scales* with its factor, whichever has the higher profile likelihood (the first
-        candidate is taken even when its matrix does not factor, as the fallback's scales)."""
-        n = len(r)
-        R = np.exp(sq @ (-0.5 / (scales * scales))).reshape(n, n)
-        R += nugget
-        L, info = lapack.dpotrf(R, lower=1, clean=1)  # LAPACK's directly: numpy's and SciPy's wrappers cost more than the work
-        if info != 0:
-            return best if best[1] is not None else (-math.inf, scales, None)
-        a = lapack.dtrtrs(L, r, lower=1)[0]
-        ll = -0.5 * n * math.log(max(float(a @ a) / n, 1e-300)) - float(np.log(L.diagonal()).sum())
-        if best[1] is None or best[2] is None or ll > best[0] + 1e-9:
-            return (ll, scales, L)
-        return best
 
     @staticmethod
     def _factor(np: Any, lapack: Any, sq: Any, scales: Any) -> Any:
@@ -204,6 +207,58 @@ class Model:
         return np.eye(n)  # not reached: R + I is positive definite
 
 
+def _round(np: Any, lapack: Any, sq: Any, r: Any, candidates: Sequence[Any], best: tuple[float, Any, Any]) -> tuple[tuple[float, Any, Any], list[float]]:
+    """Score a round of candidate length scales: each one's profile log-likelihood (-inf where its
+    correlation matrix does not factor), and *best* or the candidate that beats it by more than 1e-9 (the
+    first candidate is taken even when its matrix does not factor when nothing was taken yet, as the
+    fallback's scales; one that factors beats one that does not). The round's correlation matrices are
+    made at once; each is factored by LAPACK directly (NumPy's and SciPy's Python wrappers cost more than
+    these small matrices' arithmetic). *sq*: each pair of runs' squared differences, (n x n) x d."""
+    k, n = len(candidates), len(r)
+    W = np.array(candidates)  # k x d
+    W *= W
+    np.divide(-0.5, W, out=W)
+    R = (W @ sq.T).reshape(k, n, n)
+    np.exp(R, out=R)
+    R += _NUGGET * np.eye(n)
+    lls = []
+    dpotrf, dtrtrs, log = lapack.dpotrf, lapack.dtrtrs, math.log
+    for scales, Rj in zip(candidates, R):
+        L, info = dpotrf(Rj, lower=1, clean=1)
+        if info != 0:
+            lls.append(-math.inf)
+            if best[1] is None:
+                best = (-math.inf, scales, None)
+            continue
+        a = dtrtrs(L, r, lower=1)[0]
+        ll = -0.5 * n * log(max(float(a @ a) / n, 1e-300)) - log(float(L.diagonal().prod()))
+        lls.append(ll)
+        if best[1] is None or best[2] is None or ll > best[0] + 1e-9:
+            best = (ll, scales, L)
+    return best, lls
+
+
+@functools.lru_cache(maxsize=1)
+def _libraries() -> tuple[Any, Any, Any]:
+    """NumPy, SciPy's LAPACK and its normal distribution function, imported once (an import statement per
+    batch costs more than the batch's arithmetic)."""
+    import numpy
+    from scipy.linalg import lapack
+    from scipy.special import ndtr
+
+    return numpy, lapack, ndtr
+
+
+@functools.lru_cache(maxsize=8)
+def _ones(d: int) -> Any:
+    """A vector of *d* ones (never written)."""
+    import numpy as np
+
+    ones = np.ones(d)
+    ones.flags.writeable = False
+    return ones
+
+
 @functools.lru_cache(maxsize=8)
 def _pattern(m_local: int, best: int) -> tuple[Any, Any]:
     """Which of the *best* runs each local candidate is drawn around, and at which spread (fixed arrays, never
@@ -214,6 +269,15 @@ def _pattern(m_local: int, best: int) -> tuple[Any, Any]:
     return turns % best, np.asarray(_SPREAD)[turns % len(_SPREAD)][:, None]
 
 
+@functools.lru_cache(maxsize=8)
+def _pairs(d: int, full: bool) -> tuple[Any, Any]:
+    """The quadratic's products: every pair of the *d* coordinates (``numpy.triu_indices``), or each with
+    itself; made once per dimension (fixed arrays, never written)."""
+    import numpy as np
+
+    return np.triu_indices(d) if full else (np.arange(d), np.arange(d))
+
+
 def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng: Any, check: bool = False) -> Any:
     """The minimum of a quadratic model of the objective fitted to the best runs (*told*: continuous unit
     points and objectives), as lq-CMA-ES does: a full quadratic once there are (d + 1)(d + 2)/2 + 2
@@ -221,8 +285,7 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng
     model does not rank its own runs: each run predicted by the model fitted to the others
     (leave-one-out) must order them with a Kendall rank correlation of at least :data:`TRUST`.
     Searched over points around the best run and uniform ones."""
-    import numpy as np
-
+    np, lapack, _ = _libraries()
     full = (d + 1) * (d + 2) // 2
     diagonal = 2 * d + 1
     if len(told) >= full + 2:
@@ -236,14 +299,14 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng
     X = np.array([x for x, _ in best])
     Y = np.array([y for _, y in best])
 
-    rows, cols = np.triu_indices(d) if terms == full else (np.arange(d), np.arange(d))  # the products' pairs, in order
+    rows, cols = _pairs(d, terms == full)  # the products' pairs, in order
 
     def features(P: Any) -> Any:
         return np.concatenate([np.ones((len(P), 1)), P, P[:, rows] * P[:, cols]], axis=1)
 
     F = features(X)
-    U, sv, Vt = np.linalg.svd(F, full_matrices=False)  # least squares, and each run's leverage
-    rank = sv > sv[0] * max(F.shape) * np.finfo(float).eps  # numpy's lstsq cut-off
+    U, sv, Vt, _ = lapack.dgesdd(F, compute_uv=1, full_matrices=0)  # least squares, and each run's leverage (LAPACK's, as numpy.linalg.svd)
+    rank = sv > sv[0] * max(F.shape) * _EPS  # numpy's lstsq cut-off
     Uk = U[:, rank]
     coef = Vt[rank].T @ ((Uk.T @ Y) / sv[rank])
     if check:
@@ -253,11 +316,16 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng
         loo = Y - (Y - F @ coef) / (1.0 - leverage)  # each run as the model fitted without it predicts it
         if _kendall(np, loo, Y) < TRUST:
             return None
-    around = np.clip(X[0] + rng.normal(0.0, 0.1, size=(512, d)), 0.0, 1.0)
-    candidates = np.vstack([around, rng.random((512, d))])
+    candidates = np.empty((1024, d))  # around the best run, clipped to the box, then uniform ones (in place:
+    around = candidates[:512]  # the same numbers as normal(0, 0.1), clip and a stack, without their wrappers)
+    rng.standard_normal(out=around)
+    around *= 0.1
+    around += X[0]
+    np.maximum(around, 0.0, out=around)
+    np.minimum(around, 1.0, out=around)
+    rng.random(out=candidates[512:])
     values = features(candidates) @ coef
-    point = candidates[int(np.argmin(values))]
-    return np.clip(point, 0.0, 1.0)
+    return candidates[int(values.argmin())]  # inside the box already
 
 
 def _kendall(np: Any, a: Any, b: Any) -> float:

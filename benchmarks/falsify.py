@@ -448,7 +448,7 @@ def _breakdown(sweep: Any, v: dict[str, Any]) -> dict[str, float]:
     restore from the snapshot, in a :func:`reuse_simulations` block) and close (or keeping it), SUMO's
     steps, the adapter, and the rest of the run (the tree's ticks, the collector)."""
     from btgen_pytrees.construct import generate
-    from btgen_pytrees.run import create_system, run_tree
+    from btgen_pytrees.run import create_system, run_tree, runner
 
     registry = default_registry()
     t0 = time.perf_counter()
@@ -460,7 +460,8 @@ def _breakdown(sweep: Any, v: dict[str, Any]) -> dict[str, float]:
     t2 = time.perf_counter()
     run_tree(root, case, system=system, record=False)  # as the sweep's job
     t3 = time.perf_counter()
-    root.btgen_env.release()
+    take_apart = getattr(runner, "take_apart", None)  # what run() does with its tree (before it: release)
+    take_apart(root) if take_apart is not None else root.btgen_env.release()
     timing = system.timing  # type: ignore[attr-defined]
     return {"validate": t1 - t0, "system and tree": t2 - t1, "SUMO start+close": timing["start"] + timing["close"],
             "SUMO steps": timing["sumo"], "adapter": timing["adapter"],

@@ -36,6 +36,7 @@ from btgen_pytrees.falsify import Space
 from btgen_pytrees.leaves import default_registry
 from btgen_pytrees.load import validate
 from btgen_pytrees.run import Collector, create_system, run_tree
+from btgen_pytrees.run import runner
 from btgen_pytrees.systems.sumo import reuse_simulations
 
 from .falsify import _row, _sweep
@@ -57,7 +58,7 @@ def parts(sweep: Any, values: dict[str, Any], clock: Callable[[], float] = time.
     t2 = clock()
     run_tree(root, case, system=system, record=False)  # as the sweep's job
     t3 = clock()
-    _drop(root.btgen_env)
+    _drop(root)
     timing = system.timing  # type: ignore[attr-defined]
     return {"validate": t1 - t0, "system and tree": t2 - t1, "SUMO start+close": timing["start"] + timing["close"],
             "SUMO steps": timing["sumo"], "adapter": timing["adapter"],
@@ -97,12 +98,18 @@ def steady_tick(sweep: Any, ticks: int, at: int = 20) -> float:
         assert root.status.name == "RUNNING", "the tree finished while ticked in place"
     finally:
         system.close()
-        _drop(env)
+        _drop(root)
     return spent / ticks
 
 
-def _drop(env: Any) -> None:
-    """What ``run()`` does with the environment of the tree it made (code before ``Environment.clear``: release)."""
+def _drop(root: Any) -> None:
+    """What ``run()`` does with the tree it made (``take_apart``; code before it: the environment's release and
+    clear, or release only)."""
+    take_apart = getattr(runner, "take_apart", None)
+    if take_apart is not None:
+        take_apart(root)
+        return
+    env = root.btgen_env
     env.release()
     if hasattr(env, "clear"):
         env.clear()

@@ -292,6 +292,13 @@ class Environment:
         """
         self._done_listeners.append(listener)
 
+    def forget_listeners(self) -> None:
+        """Forget every :meth:`listen_done` listener. For a tree that will not tick again: a listener is
+        a method of one of the tree's nodes, which hold this environment, so each keeps the other alive
+        until the garbage collector finds the cycle (``run()`` takes the tree it made apart once its
+        report is made: :func:`btgen_pytrees.run.runner.take_apart`)."""
+        self._done_listeners = []
+
     def is_done(self, entry_id: str) -> bool:
         return (self._done + entry_id) in Blackboard.storage
 

@@ -50,7 +50,7 @@ from .collector import Collector, Trace
 from .report import Report
 from .scene import Scene
 
-__all__ = ["run", "run_tree", "create_system", "Trace"]
+__all__ = ["run", "run_tree", "create_system", "take_apart", "Trace"]
 
 _DONE = (Status.SUCCESS, Status.FAILURE)
 
@@ -214,8 +214,32 @@ def run(case: TestCase, *, registry: Registry | None = None, trace: Trace | None
         return run_tree(root, case, system=system, trace=trace, require_complete=require_complete, progress=progress,
                         max_work=max_work, record=record)
     finally:
-        root.btgen_env.release()  # the tree was made here and goes now: its blackboard clients with it,
-        root.btgen_env.clear()  # and its keys (a sweep's or a search's thousands of runs would keep them all)
+        take_apart(root)  # the tree was made here and goes now (the report keeps none of it)
+
+
+def take_apart(root: py_trees.behaviour.Behaviour) -> None:
+    """Let a generated tree that will not tick again go at once: ``run()`` does it for the tree it made.
+
+    Its environment's blackboard clients are unregistered (:meth:`~btgen_pytrees.leaves.Environment.release`)
+    and its keys taken off the blackboard (:meth:`~btgen_pytrees.leaves.Environment.clear`): a sweep's or a
+    search's thousands of runs would keep them all. Then the links that make a tree a web of reference
+    cycles are dropped - each node's ``parent``, ``children`` and ``iterator`` (the ``tick()`` generator
+    py_trees keeps) and the environment's listeners (:meth:`~btgen_pytrees.leaves.Environment.forget_listeners`)
+    - so the tree is freed as soon as the last reference to it goes, not left, 270 objects a run of the
+    SUMO cut-in, for the garbage collector to find (about a tenth of a millisecond a run in collections).
+    Nothing a report holds is touched: a report keeps no node (:mod:`btgen_pytrees.run.trace`).
+    """
+    env = root.btgen_env  # type: ignore[attr-defined]
+    env.release()
+    env.clear()
+    env.forget_listeners()
+    for node in list(root.iterate()):
+        try:
+            node.parent = None
+            node.children = []
+            node.iterator = None
+        except (AttributeError, TypeError):  # a user's node that will not have them set: left to the collector
+            pass
 
 
 def work_per_tick(case: TestCase) -> int:

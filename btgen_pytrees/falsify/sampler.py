@@ -208,9 +208,12 @@ class Sampler:
                         self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "gp":
                     if not self._asked or not self._queue:  # a batch's points at once (the quadratic's first)
-                        told = [i for i, y in enumerate(self.ys) if y is not None]
-                        self._queue = self._model.propose([self._unit[i] for i in told], [self.ys[i] for i in told], n - len(points),  # type: ignore[misc]
-                                                          first=None if self._asked else self._model_point(check=True))  # fmt: skip
+                        first = None if self._asked else self._model_point(check=True)
+                        if first is not None and n - len(points) == 1:  # the batch is the quadratic's point alone
+                            self._queue = [[float(u) for u in first]]
+                        else:
+                            told = [i for i, y in enumerate(self.ys) if y is not None]
+                            self._queue = self._model.propose([self._unit[i] for i in told], [self.ys[i] for i in told], n - len(points), first=first)  # type: ignore[misc]
                     x = self._queue.pop(0)
                     self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "cmaes":

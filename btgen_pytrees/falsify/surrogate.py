@@ -104,10 +104,6 @@ class Model:
         # candidates: uniform, and around the best runs at several distances
         m = max(CANDIDATES, 2 * n)
         m_local = m // 2
-        if first is not None and n == 1:  # the batch is *first* alone: nothing to score, but the same draws
-            rng.normal(0.0, 1.0, size=(m_local, d))  # (the generator moves on as if the candidates were scored)
-            rng.random((m - m_local, d))
-            return [[float(u) for u in first]]
         if L is None:  # the scales kept, or no candidate's matrix factored with the smallest nugget
             L = self._factor(np, lapack, sq, self.scales)
         inverse = lapack.dtrtri(L, lower=1)[0]  # L^-1 (LAPACK's; a triangular solve with n right-hand sides is far slower)

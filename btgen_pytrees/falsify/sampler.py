@@ -213,7 +213,8 @@ class Sampler:
                             self._queue = [[float(u) for u in first]]
                         else:
                             told = [i for i, y in enumerate(self.ys) if y is not None]
-                            self._queue = self._model.propose([self._unit[i] for i in told], [self.ys[i] for i in told], n - len(points), first=first)  # type: ignore[misc]
+                            X, y = [self._unit[i] for i in told], [self.ys[i] for i in told]
+                            self._queue = self._model.propose(X, y, n - len(points), first=first)  # type: ignore[arg-type]
                     x = self._queue.pop(0)
                     self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "cmaes":

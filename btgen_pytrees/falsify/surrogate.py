@@ -75,6 +75,7 @@ class Model:
         self.fitted = 0
         """How many runs had been told when the scales were last fitted."""
         self.refits = 0
+        """How many fits have started from the previous scales (their factor alternates: 0.6, 1.6, ...)."""
 
     def propose(self, X: Sequence[Sequence[float]], y: Sequence[float], n: int, first: Any = None) -> list[list[float]]:
         """*n* points of the unit box most likely to fail (objective < 0) under the model fitted to the
@@ -94,7 +95,9 @@ class Model:
             recent = [i for i in range(len(ya) - 1, -1, -1) if i not in best][: KEEP - len(best)]
             keep = sorted(best | set(recent))
             Xa, ya = Xa[keep], ya[keep]
-        mu = float(np.add.reduce(ya)) / len(ya)  # ufuncs' and arrays' own methods: NumPy's Python-level wrappers (sum, argsort, argmax) cost more than these arrays' work
+        # the arrays' and ufuncs' own methods below: NumPy's Python-level wrappers (sum, argsort, argmax)
+        # cost more than these small arrays' work
+        mu = float(np.add.reduce(ya)) / len(ya)
         r = ya - mu
         sq = ((Xa[:, None, :] - Xa[None, :, :]) ** 2).reshape(-1, d)  # (n x n) x d
         L = None

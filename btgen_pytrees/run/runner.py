@@ -254,9 +254,9 @@ def _spent(case: TestCase, budget: int, ticks: int) -> str:
 
 
 def _system_time(case: TestCase, now: Any, then: float) -> float:
-    """*now*, what ``system.now()`` returned, checked: a finite number of seconds, not before *then* (the last tick's)."""
-    if type(now) is float and now >= then and now - now == 0.0:  # the usual answer, checked without an ABC's isinstance
-        return now
+    """*now*, what ``system.now()`` returned, checked: a finite number of seconds, not before *then* (the last
+    tick's). The tick loop checks the usual answer - a float, finite, not going back - inline, without an
+    ABC's ``isinstance``, and calls this for the others."""
     if isinstance(now, Real) and not isinstance(now, bool):
         seconds = float(now)
         if math.isfinite(seconds) and seconds >= then:

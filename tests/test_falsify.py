@@ -303,9 +303,10 @@ def test_auto_is_the_gp_on_a_continuous_box_and_tpe_with_a_list(tmp_path: pathli
 @pytest.mark.filterwarnings("error::RuntimeWarning")  # no overflow or NaN in the model's arithmetic
 def test_the_gp_batch_goes_where_failing_is_likely_and_spreads() -> None:
     """The model's batch: its first point near the bowl's bottom (where the objective goes below 0), the
-    others distinct and spread (kriging believer), the same for the same generator."""
+    others distinct and spread (kriging believer), the same for the same seed."""
     import numpy as np
 
+    from btgen_pytrees.falsify.qmc import Draws
     from btgen_pytrees.falsify.surrogate import Model
 
     def bowl(x: Any) -> float:
@@ -315,21 +316,21 @@ def test_the_gp_batch_goes_where_failing_is_likely_and_spreads() -> None:
     X = [[float(u) for u in p] for p in rng.random((12, 2))]
     X = [x for x in X if bowl(x) > 0]
     y = [bowl(x) for x in X]
-    batch = Model(np.random.default_rng(1)).propose(X, y, 6)
-    assert batch == Model(np.random.default_rng(1)).propose(X, y, 6)
+    batch = Model(Draws(1)).propose(X, y, 6)
+    assert batch == Model(Draws(1)).propose(X, y, 6)
     assert len(batch) == 6 and all(0.0 <= u <= 1.0 for p in batch for u in p)
     assert bowl(batch[0]) < bowl(min(X, key=bowl))  # closer to failing than any run so far
     gaps = [float(np.hypot(p[0] - q[0], p[1] - q[1])) for i, p in enumerate(batch) for q in batch[:i]]
     assert min(gaps) > 0.01
     first = [0.9, 0.1]
-    assert Model(np.random.default_rng(1)).propose(X, y, 3, first=first)[0] == first
-    assert len({tuple(p) for p in Model(np.random.default_rng(1)).propose(X, y, 300)}) == 300  # a batch larger than the candidates
+    assert Model(Draws(1)).propose(X, y, 3, first=first)[0] == first
+    assert len({tuple(p) for p in Model(Draws(1)).propose(X, y, 300)}) == 300  # a batch larger than the candidates
 
 
 def test_the_gp_finds_the_island_in_its_second_batch() -> None:
     """island_2d (the benchmark's 2-parameter case, failing on 1 % of the box): the model's first batch
     after the 8 space-filling runs meets the failure, for each of five seeds (the Sobol sequence alone
-    meets it in one of them, by chance, at its fourth point)."""
+    meets it in two of them, by chance, at its sixth and eighth points)."""
     from btgen_pytrees.falsify import Search, Settings, Space
     from btgen_pytrees.falsify.jobs import timed
     from btgen_pytrees.falsify.margins import row_margins
@@ -348,7 +349,7 @@ def test_the_gp_finds_the_island_in_its_second_batch() -> None:
             settings = Settings(method=method, seed=seed, budget=16, batch=8, stop="first")
             found[method, seed] = Search(Space.of(sweep.variations), sweep.defaults, settings, evaluate, {"others": ("&&", ["F1"])}).run().first_failure
     assert all(found["gp", seed] is not None and found["gp", seed] <= 16 for seed in range(5)), found
-    assert sum(found["sobol", seed] is not None for seed in range(5)) <= 1, found
+    assert sum(found["sobol", seed] is not None for seed in range(5)) <= 2, found
 
 
 def test_the_gp_start_runs_the_boxs_opposite_corners_then_sobol_points(tmp_path: pathlib.Path) -> None:
@@ -453,7 +454,7 @@ def test_a_sobol_search_runs_sobols_sequence_digitally_shifted() -> None:
     base = (qmc.Sobol(d=4, scramble=False).random_base2(5) * 2**30).astype(np.int64)
     space = _island_search("island_4d", method="sobol", seed=5, budget=24, batch=8).space
     shifts = []
-    for seed in (5, 6):
+    for seed in (6, 7):
         points = np.array(asked(Sampler(space, "sobol", seed=seed, start=0, batch=8), 4))
         bits = (points * 2**30).astype(np.int64)
         assert (points * 2**30 == bits).all()
@@ -462,8 +463,8 @@ def test_a_sobol_search_runs_sobols_sequence_digitally_shifted() -> None:
         assert all(sorted((points[:, j] * 32).astype(int).tolist()) == list(range(32)) for j in range(4))
         shifts.append(shift[0].tolist())
     assert shifts[0] != shifts[1]
-    search = _island_search("island_4d", method="sobol", seed=5, budget=24, batch=8).run()
-    expected = asked(Sampler(search.space, "sobol", seed=5, start=0, batch=8), 3)
+    search = _island_search("island_4d", method="sobol", seed=6, budget=24, batch=8).run()
+    expected = asked(Sampler(search.space, "sobol", seed=6, start=0, batch=8), 3)
     assert [r.unit for r in search.runs] == [search.space.snapped(p)[0] for p in expected]
 
 
@@ -500,18 +501,17 @@ def test_the_quadratic_models_minimum_is_proposed_only_when_it_ranks_its_runs() 
     fitted to 16 Sobol runs predicts each run from the others in their order, and its minimum lies in
     the failing island; on island_4d (a ramp's duration bends the bowl) it does not, and the quadratic
     proposes nothing - a point from it was no better than an arbitrary one."""
-    import numpy as np
-
+    from btgen_pytrees.falsify.qmc import Draws
     from btgen_pytrees.falsify.surrogate import quadratic_minimum
 
     told = {}
     for name in ("island_2d", "island_4d"):
         search = _island_search(name, method="sobol", seed=0, budget=16, batch=16).run()
         told[name] = [(r.unit, r.objective) for r in search.runs]
-    bottom = quadratic_minimum(told["island_2d"], 2, np.random.default_rng(0), check=True)
+    bottom = quadratic_minimum(told["island_2d"], 2, Draws(0), check=True)
     assert bottom is not None and (10 * bottom[0] - 6) ** 2 / 4 + (5 * bottom[1] - 2.5) ** 2 < 0.08  # inside the island
-    assert quadratic_minimum(told["island_4d"], 4, np.random.default_rng(0), check=True) is None
-    assert quadratic_minimum(told["island_4d"], 4, np.random.default_rng(0)) is not None  # CMA-ES's batches take it unchecked
+    assert quadratic_minimum(told["island_4d"], 4, Draws(0), check=True) is None
+    assert quadratic_minimum(told["island_4d"], 4, Draws(0)) is not None  # CMA-ES's batches take it unchecked
 
 
 @pytest.mark.parametrize("seed", [122, 187])
@@ -528,6 +528,7 @@ def test_the_length_scales_are_refitted_every_batch_until_the_model_keeps_a_subs
     again, it gives the same batches."""
     import numpy as np
 
+    from btgen_pytrees.falsify.qmc import Draws
     from btgen_pytrees.falsify.surrogate import KEEP, Model, REFIT
 
     rng = np.random.default_rng(3)
@@ -535,7 +536,7 @@ def test_the_length_scales_are_refitted_every_batch_until_the_model_keeps_a_subs
     y = [float((x[0] - 0.6) ** 2 + (x[1] - 0.3) ** 2 - 0.01 + 0.1 * x[2]) for x in X]
 
     def asked() -> tuple[list[tuple[int, int]], list[list[list[float]]]]:
-        model = Model(np.random.default_rng(1))
+        model = Model(Draws(1))
         fits, batches = [], []
         for told in range(3, 121):
             batches.append(model.propose(X[:told], y[:told], 1))

@@ -43,6 +43,7 @@ import math
 import warnings
 from typing import Any, Callable, Iterator, Sequence
 
+from .qmc import SOBOL_BITS, Draws, sobol_rows
 from .space import Space
 from .surrogate import Model, quadratic_minimum
 
@@ -55,23 +56,6 @@ SIGMA0 = 0.2
 """CMA-ES's first step size, as a fraction of the unit box."""
 RESTART_SIGMA = 0.3
 """The step size of a restart (a new region: wider)."""
-
-
-SOBOL_BITS = 30
-"""Bits of a Sobol point's coordinates (SciPy's default)."""
-
-
-@functools.lru_cache(maxsize=16)
-def sobol_points(d: int, m: int) -> Any:
-    """The first 2**m points of Sobol's sequence in *d* dimensions, unscrambled, as integers of
-    :data:`SOBOL_BITS` bits (SciPy's ``qmc.Sobol``: its direction numbers; made once per process and size,
-    never written)."""
-    import numpy
-    from scipy.stats import qmc
-
-    points = (qmc.Sobol(d=d, scramble=False, bits=SOBOL_BITS).random_base2(m) * 2.0**SOBOL_BITS).astype(numpy.int64)
-    points.flags.writeable = False
-    return points
 
 
 def _legacy_seed(seed: int) -> int:
@@ -159,12 +143,12 @@ class Sampler:
                 self._study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=_legacy_seed(seed)))
         self._stage = "start" if self.start else self.method
         self._extremes = self._corners() if self.method == "gp" and self.start >= 4 else []
-        self._rng = numpy.random.default_rng(seed)
-        self._shift = self._rng.integers(0, 2**SOBOL_BITS, size=len(space.dimensions))  # the Sobol points' digital shift
+        self._draws = Draws(seed)  # the Sobol points' shifts: the start's (one), the models' candidates' (each theirs)
+        self._shift = self._draws.shift(len(space.dimensions))
         self._sobol = 0  # Sobol points drawn
         self._cma: Any = None
         self._queue: list[list[float]] = []
-        self._model = Model(self._rng)
+        self._model = Model(self._draws)
         self._generation: list[tuple[Any, float | None]] = []
         self._starts: list[list[float]] = []
         self._stale = 0
@@ -174,6 +158,12 @@ class Sampler:
         """Points the searcher should not start from (e.g. inside a known failure cluster)."""
 
     # -- the interface ------------------------------------------------------------------------------
+
+    @functools.cached_property
+    def _rng(self) -> Any:
+        """NumPy's generator, seeded with the seed: made for the methods that draw with it (a list parameter's
+        choice, CMA-ES's random start), not for every search (:mod:`.qmc`)."""
+        return self._np.random.default_rng(self.seed)
 
     @functools.cached_property
     def _dists(self) -> dict[str, Any]:
@@ -300,7 +290,8 @@ class Sampler:
         """The next point of the Sobol sequence, digitally shifted (a list parameter: its choice at that fraction)."""
         k = self._sobol
         self._sobol += 1
-        u = (sobol_points(len(self.space.dimensions), max(6, k.bit_length()))[k] ^ self._shift) / 2.0**SOBOL_BITS
+        row = sobol_rows(len(self.space.dimensions), max(6, k.bit_length()))[k]
+        u = [(bits ^ shift) / 2.0**SOBOL_BITS for bits, shift in zip(row, self._shift)]
         return [float(v) if d.continuous else float(min(len(d.choices) - 1, int(v * len(d.choices))))
                 for d, v in zip(self.space.dimensions, u)]  # fmt: skip
 
@@ -349,7 +340,7 @@ class Sampler:
         lq-CMA-ES), or None when too few runs fit one (or, with *check*, when it does not rank its own
         runs: the ``gp`` method's model chooses instead); the first point of each batch."""
         told = [(u, y) for u, x, y in zip(self._unit, self.xs, self.ys) if y is not None and not self.avoid(x)]
-        return quadratic_minimum(told, len(self.space.continuous), self._rng, check=check)
+        return quadratic_minimum(told, len(self.space.continuous), self._draws, check=check)
 
     def _cma_tell(self) -> None:
         told = [y for _, y in self._generation if y is not None]

@@ -73,7 +73,7 @@ class Settings:
         return self.batch * max(1, math.ceil(n / self.batch))
 
 
-@dataclass
+@dataclass(init=False, slots=True)
 class Run:
     """One run of the search (``row`` is what its worker returned: verdict, margins, ...)."""
 
@@ -82,12 +82,16 @@ class Run:
     unit: list[float]
     parameters: dict[str, Value]
     row: dict[str, Any]
-    objective: float | None = None
-    failed: bool = field(init=False)
+    objective: float | None
+    failed: bool
     """Whether the verdict is ``fail``, ``timeout`` or ``error`` (a run's row is not changed once told)."""
 
-    def __post_init__(self) -> None:
-        self.failed = self.row.get("verdict", "error") in FAILING
+    def __init__(self, index: int, phase: str, unit: list[float], parameters: dict[str, Value], row: dict[str, Any],
+                 objective: float | None = None):  # fmt: skip
+        """The dataclass's fields, and :attr:`failed` from the row, in one call (one per run)."""
+        self.index, self.phase, self.unit, self.parameters, self.row = index, phase, unit, parameters, row
+        self.objective = objective
+        self.failed = row.get("verdict", "error") in FAILING
 
     @property
     def verdict(self) -> str:

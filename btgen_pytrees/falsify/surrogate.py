@@ -43,6 +43,8 @@ import functools
 import math
 from typing import Any, Sequence
 
+from .qmc import Draws
+
 __all__ = ["Model", "quadratic_minimum", "KEEP", "CANDIDATES", "REFIT", "TRUST"]
 
 KEEP = 32
@@ -58,7 +60,7 @@ again once the runs told have grown by this factor since their last fit (the fac
 prediction are computed for every batch)."""
 _SPREAD = (0.02, 0.05, 0.1, 0.2)
 """Distances (standard deviations, in the unit box) of the candidates around the best runs."""
-_FIRST = (0.05, 0.1, 0.2, 0.35, 0.6, 1.0)
+_FIRST = (0.1, 0.3, 1.0)
 _NUGGET = 1e-6
 _EPS = 2.220446049250313e-16
 """``numpy.finfo(float).eps``."""
@@ -68,9 +70,9 @@ _LONGEST = 4.0
 class Model:
     """The model's state between batches (its length scales) and its generator."""
 
-    def __init__(self, rng: Any):
-        self._np, self._lapack, self._ndtr = _libraries()
-        self.rng = rng
+    def __init__(self, draws: Draws):
+        self._np, self._lapack, self._ndtri = _libraries()
+        self.draws = draws
         self.scales: Any = None
         self.fitted = 0
         """How many runs had been told when the scales were last fitted."""
@@ -82,12 +84,12 @@ class Model:
         runs *X* (unit points, continuous coordinates) with objectives *y*; the most likely first
         (*first*, if given, is taken first whatever its score: the others spread around it).
         Uniform points when fewer than two runs are known."""
-        np, lapack, ndtr = self._np, self._lapack, self._ndtr
-        rng = self.rng
+        np, lapack = self._np, self._lapack
+        draws = self.draws
         Xa, ya = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
         d = Xa.shape[1] if Xa.ndim == 2 else 0
         if len(ya) < 2 or d == 0:
-            return [[float(u) for u in row] for row in rng.random((n, d))]
+            return draws.uniform(np.empty((n, d))).tolist()
         told = len(ya)
         if len(ya) > KEEP:  # the best half and the most recent others
             order = ya.argsort(kind="stable")
@@ -110,28 +112,29 @@ class Model:
         if L is None:  # the scales kept, or no candidate's matrix factored with the smallest nugget
             L = self._factor(np, lapack, sq, self.scales)
         inverse = lapack.dtrtri(L, lower=1)[0]  # L^-1 (LAPACK's; a triangular solve with n right-hand sides is far slower)
-        a = inverse @ r
-        s2 = max(float(a @ a) / len(r), 1e-300)
-        alpha = inverse.T @ a
+        alpha = inverse.T @ (inverse @ r)
         ranked = ya.argsort(kind="stable")[:4]
         turn, spread = _pattern(m_local, len(ranked))
         centres = Xa[ranked[turn]]
         # written in place into one array (the same values as the sums and products spelt out: a small
-        # array's every temporary costs more than its arithmetic)
+        # array's every temporary costs more than its arithmetic): m Sobol points under one shift, the
+        # first m - m_local uniform, the others through the normal quantile function (each centre's and
+        # spread's points a block of consecutive ones: a net of their own, see _pattern)
         C = np.empty((m + (first is not None), d))
+        draws.uniform(C[:m])
         local = C[m - m_local : m]
-        rng.standard_normal(out=local)  # the draws of normal(0, 1): the same numbers
+        self._ndtri(local, out=local)  # normal(0, 1) points
         local *= spread
         local += centres  # centre + draw * spread
         np.maximum(local, 0.0, out=local)
         np.minimum(local, 1.0, out=local)
-        rng.random(out=C[: m - m_local])
         if first is not None:
             C[m] = first
         Xs, Cs = Xa / self.scales, C / self.scales
-        cc = (Cs * Cs) @ _ones(d)  # each row's squared norm: a product, where a reduction along a short axis is slow
+        ones = _ones(d)
+        cc = (Cs * Cs) @ ones  # each row's squared norm: a product, where a reduction along a short axis is slow
         k = Xs @ Cs.T  # n x m: exp(x.c - |x|^2/2 - |c|^2/2), at most 1
-        k -= 0.5 * np.add.reduce(Xs * Xs, axis=1)[:, None]
+        k -= 0.5 * ((Xs * Xs) @ ones)[:, None]
         k -= 0.5 * cc
         np.minimum(k, 0.0, out=k)
         np.exp(k, out=k)
@@ -140,14 +143,16 @@ class Model:
         mean += mu
         var = np.add.reduce(V * V, axis=0)
         np.subtract(1.0, var, out=var)
-        np.maximum(var, 1e-12, out=var)  # in units of s2
-        sd = math.sqrt(s2)
+        np.maximum(var, 1e-12, out=var)  # in units of the process's variance
         chosen: list[int] = []
         for _ in range(min(n, len(C))):
-            score = ndtr(-mean / (sd * np.sqrt(var)))
+            # P(objective < 0) = Phi(-mean / sd): the most likely to fail has the least mean / sd (the
+            # process's own variance scales every sd alike), which is ranked without Phi - and without its
+            # rounding to exactly 0 and 1 far in its tails, where it would tie the candidates
+            z = mean / np.sqrt(var)
             if chosen:
-                score[chosen] = -1.0
-            j = len(C) - 1 if first is not None and not chosen else int(score.argmax())
+                z[chosen] = math.inf
+            j = len(C) - 1 if first is not None and not chosen else int(z.argmin())
             chosen.append(j)
             if len(chosen) == n:  # the batch is complete: nothing more to believe
                 break
@@ -219,9 +224,9 @@ def _round(np: Any, lapack: Any, sq: Any, r: Any, candidates: Sequence[Any], bes
     np.divide(-0.5, W, out=W)
     R = (W @ sq.T).reshape(k, n, n)
     np.exp(R, out=R)
-    R += _NUGGET * np.eye(n)
+    R += _nugget(n)
     lls = []
-    dpotrf, dtrtrs, log = lapack.dpotrf, lapack.dtrtrs, math.log
+    dpotrf, dtrtrs, log, prod = lapack.dpotrf, lapack.dtrtrs, math.log, np.multiply.reduce
     for scales, Rj in zip(candidates, R):
         L, info = dpotrf(Rj, lower=1, clean=1)
         if info != 0:
@@ -230,7 +235,7 @@ def _round(np: Any, lapack: Any, sq: Any, r: Any, candidates: Sequence[Any], bes
                 best = (-math.inf, scales, None)
             continue
         a = dtrtrs(L, r, lower=1)[0]
-        ll = -0.5 * n * log(max(float(a @ a) / n, 1e-300)) - log(float(L.diagonal().prod()))
+        ll = -0.5 * n * log(max(float(a @ a) / n, 1e-300)) - log(float(prod(L.diagonal())))
         lls.append(ll)
         if best[1] is None or best[2] is None or ll > best[0] + 1e-9:
             best = (ll, scales, L)
@@ -239,13 +244,13 @@ def _round(np: Any, lapack: Any, sq: Any, r: Any, candidates: Sequence[Any], bes
 
 @functools.lru_cache(maxsize=1)
 def _libraries() -> tuple[Any, Any, Any]:
-    """NumPy, SciPy's LAPACK and its normal distribution function, imported once (an import statement per
-    batch costs more than the batch's arithmetic)."""
+    """NumPy, SciPy's LAPACK and its normal quantile function, imported once (an import statement per batch
+    costs more than the batch's arithmetic)."""
     import numpy
     from scipy.linalg import lapack
-    from scipy.special import ndtr
+    from scipy.special import ndtri
 
-    return numpy, lapack, ndtr
+    return numpy, lapack, ndtri
 
 
 @functools.lru_cache(maxsize=8)
@@ -258,14 +263,27 @@ def _ones(d: int) -> Any:
     return ones
 
 
+@functools.lru_cache(maxsize=64)
+def _nugget(n: int) -> Any:
+    """:data:`_NUGGET` times the *n* x *n* identity (never written: made once per size, not per round)."""
+    import numpy as np
+
+    nugget = _NUGGET * np.eye(n)
+    nugget.flags.writeable = False
+    return nugget
+
+
 @functools.lru_cache(maxsize=8)
 def _pattern(m_local: int, best: int) -> tuple[Any, Any]:
     """Which of the *best* runs each local candidate is drawn around, and at which spread (fixed arrays, never
-    written: made once, not per batch)."""
+    written: made once, not per batch): in blocks of consecutive candidates - each run's block split into one
+    per spread - never in turns. The candidates are consecutive Sobol points, and every 4th point of Sobol's
+    sequence lies in one quarter of its first coordinate: taken in turns, each run would get its normal
+    draws from one quarter of the normal distribution; a block of consecutive points is spread evenly."""
     import numpy as np
 
     turns = np.arange(m_local)
-    return turns % best, np.asarray(_SPREAD)[turns % len(_SPREAD)][:, None]
+    return turns * best // m_local, np.asarray(_SPREAD)[turns * best * len(_SPREAD) // m_local % len(_SPREAD)][:, None]
 
 
 @functools.lru_cache(maxsize=8)
@@ -277,14 +295,14 @@ def _pairs(d: int, full: bool) -> tuple[Any, Any]:
     return np.triu_indices(d) if full else (np.arange(d), np.arange(d))
 
 
-def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng: Any, check: bool = False) -> Any:
+def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, draws: Draws, check: bool = False) -> Any:
     """The minimum of a quadratic model of the objective fitted to the best runs (*told*: continuous unit
     points and objectives), as lq-CMA-ES does: a full quadratic once there are (d + 1)(d + 2)/2 + 2
     runs, one without cross terms from 2 d + 3; None with fewer. With *check*, also None when the
     model does not rank its own runs: each run predicted by the model fitted to the others
     (leave-one-out) must order them with a Kendall rank correlation of at least :data:`TRUST`.
     Searched over points around the best run and uniform ones."""
-    np, lapack, _ = _libraries()
+    np, lapack, ndtri = _libraries()
     full = (d + 1) * (d + 2) // 2
     diagonal = 2 * d + 1
     if len(told) >= full + 2:
@@ -315,14 +333,13 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, rng
         loo = Y - (Y - F @ coef) / (1.0 - leverage)  # each run as the model fitted without it predicts it
         if _kendall(np, loo, Y) < TRUST:
             return None
-    candidates = np.empty((1024, d))  # around the best run, clipped to the box, then uniform ones (in place:
-    around = candidates[:512]  # the same numbers as normal(0, 0.1), clip and a stack, without their wrappers)
-    rng.standard_normal(out=around)
+    candidates = draws.uniform(np.empty((1024, d)))  # Sobol points under one shift: the first half go around
+    around = candidates[:512]  # the best run (normal(0, 0.1), clipped to the box, in place), the rest are uniform
+    ndtri(around, out=around)
     around *= 0.1
     around += X[0]
     np.maximum(around, 0.0, out=around)
     np.minimum(around, 1.0, out=around)
-    rng.random(out=candidates[512:])
     values = features(candidates) @ coef
     return candidates[int(values.argmin())]  # inside the box already
 

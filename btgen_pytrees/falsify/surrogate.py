@@ -131,11 +131,11 @@ class Model:
         if first is not None:
             C[m] = first
         Xs, Cs = Xa / self.scales, C / self.scales
-        ones = _ones(d)
-        cc = (Cs * Cs) @ ones  # each row's squared norm: a product, where a reduction along a short axis is slow
+        halves = _halves(d)
+        cc = (Cs * Cs) @ halves  # half each row's squared norm: a product, where a reduction along a short axis is slow
         k = Xs @ Cs.T  # n x m: exp(x.c - |x|^2/2 - |c|^2/2), at most 1
-        k -= 0.5 * ((Xs * Xs) @ ones)[:, None]
-        k -= 0.5 * cc
+        k -= ((Xs * Xs) @ halves)[:, None]
+        k -= cc
         np.minimum(k, 0.0, out=k)
         np.exp(k, out=k)
         V = inverse @ k
@@ -157,7 +157,7 @@ class Model:
             if len(chosen) == n:  # the batch is complete: nothing more to believe
                 break
             # kriging believer: the point is told as predicted; the variance around it shrinks
-            cov = np.exp(np.minimum(Cs @ Cs[j] - 0.5 * cc - 0.5 * cc[j], 0.0)) - V.T @ V[:, j]
+            cov = np.exp(np.minimum(Cs @ Cs[j] - cc - cc[j], 0.0)) - V.T @ V[:, j]
             if var[j] > 1e-9:  # a point the runs already pin down teaches nothing (and would divide by ~0)
                 row = cov / math.sqrt(float(var[j]))
                 var = np.maximum(var - row * row, 1e-12)
@@ -254,13 +254,13 @@ def _libraries() -> tuple[Any, Any, Any]:
 
 
 @functools.lru_cache(maxsize=8)
-def _ones(d: int) -> Any:
-    """A vector of *d* ones (never written)."""
+def _halves(d: int) -> Any:
+    """A vector of *d* halves (never written): a product with it is half each row's sum."""
     import numpy as np
 
-    ones = np.ones(d)
-    ones.flags.writeable = False
-    return ones
+    halves = np.full(d, 0.5)
+    halves.flags.writeable = False
+    return halves
 
 
 @functools.lru_cache(maxsize=64)

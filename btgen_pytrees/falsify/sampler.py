@@ -30,7 +30,7 @@ first, when it has at least 4 runs). Then:
 
 Points are asked in batches and told in the order they were asked, so a seed
 gives the same search whatever the number of workers. Optuna's and NumPy's
-generators and the Sobol points' shift are seeded from the seed; nothing global is
+generators and the Sobol points' shifts (:mod:`.qmc`) are seeded from the seed; nothing global is
 changed (Optuna's log level is raised only around its calls, and put back; warnings are
 silenced only around the calls into Optuna and the ``cmaes`` library).
 """

@@ -16,9 +16,11 @@ It is ordinary kriging on the unit box, small enough to refit every batch:
   (up to :data:`KEEP`), then once the runs told have grown by :data:`REFIT`;
 * a point's **acquisition** is its probability of failing under the model,
   P(objective < 0) = Phi(-mean / sd): high near runs that came close to failing
-  and far from every run (exploration), with no weight to tune;
-* a **batch** is chosen greedily from candidate points (uniform ones, and ones
-  around the best runs at several distances): the most likely to fail first;
+  and far from every run (exploration), with no weight to tune (ranked by
+  mean / sd, the same order);
+* a **batch** is chosen greedily from candidate points (uniform ones, and normal
+  ones around the best runs at several distances: Sobol points under a fresh
+  random shift, :class:`~.qmc.Draws`): the most likely to fail first;
   then the model is told that point's predicted value ("kriging believer": the
   uncertainty around it shrinks, its mean stays) and the next is chosen, so a
   batch spreads over the promising places instead of piling onto one.
@@ -32,7 +34,8 @@ as NumPy's and SciPy's wrappers cost more than these small matrices' arithmetic)
 
 :func:`quadratic_minimum` is the minimum of a quadratic model fitted to the best
 runs (as in lq-CMA-ES); with ``check`` it is given only when the model ranks its
-own runs (leave-one-out, Kendall's tau of at least :data:`TRUST`).
+own runs (leave-one-out, Kendall's tau of at least :data:`TRUST`); its minimum is
+the best of 1,024 such candidates, half around the best run and half uniform.
 NumPy and SciPy (the ``search`` extra) are imported once, when the first model
 is made (an import statement per batch cost more than the batch's arithmetic).
 """

@@ -434,6 +434,59 @@ def test_a_search_stopped_by_sigterm_in_its_own_code_says_sigterm() -> None:
         assert search.interrupted and search.signum == expected and len(search.runs) == 8
 
 
+def test_the_models_candidates_are_a_freshly_shifted_sobol_net_each_draw() -> None:
+    """Draws.uniform: the first n Sobol points XORed with a fresh shift each call - every coordinate of 2**m
+    points falls once into each of the 2**m equal intervals (a net), at a cell's centre, strictly inside
+    (0, 1); the next call is shifted elsewhere; the same seed draws the same points."""
+    import numpy as np
+
+    from btgen_pytrees.falsify.qmc import Draws
+
+    draws = Draws(3)
+    first, second = draws.uniform(np.empty((64, 3))), draws.uniform(np.empty((64, 3)))
+    for points in (first, second):
+        assert (points > 0.0).all() and (points < 1.0).all()
+        assert all(sorted((points[:, j] * 64).astype(int).tolist()) == list(range(64)) for j in range(3))
+    assert not np.array_equal(first, second)
+    again = Draws(3)
+    assert np.array_equal(again.uniform(np.empty((64, 3))), first) and np.array_equal(again.uniform(np.empty((64, 3))), second)
+    assert not np.array_equal(Draws(4).uniform(np.empty((64, 3))), first)
+
+
+def test_each_best_runs_candidates_spread_on_both_sides_of_it() -> None:
+    """The gp's local candidates around each of the four best runs, at each of the four distances, are a block
+    of consecutive Sobol points through the normal quantile function, so in every coordinate they fall on both
+    sides of the run and in every quarter of the normal distribution. Taken in turns (run i % 4, distance
+    i % 4), each run had one distance only, and every 4th Sobol point lies in one quarter of the first
+    coordinate: a run's candidates would all lie on one side of it."""
+    import numpy as np
+    from scipy.special import ndtri
+
+    from btgen_pytrees.falsify.qmc import Draws
+    from btgen_pytrees.falsify.surrogate import CANDIDATES, local_pattern
+
+    m_local = CANDIDATES // 2
+    turn, spread = local_pattern(m_local, 4)
+    normal = ndtri(Draws(0).uniform(np.empty((CANDIDATES, 2)))[CANDIDATES - m_local :])
+    for best in range(4):
+        mine = turn == best
+        assert sorted(set(spread[mine, 0].tolist())) == [0.02, 0.05, 0.1, 0.2]
+        for s in (0.02, 0.05, 0.1, 0.2):
+            draws = normal[mine & (spread[:, 0] == s)]
+            for j in range(2):
+                quarters = {int(q) for q in np.searchsorted([-0.6745, 0.0, 0.6745], draws[:, j])}
+                assert quarters == {0, 1, 2, 3}, (best, s, j, draws[:, j])
+
+
+def test_a_gp_search_on_a_continuous_box_makes_no_numpy_generator() -> None:
+    """The gp method's draws on a continuous box are the Sobol points' shifts (:mod:`falsify.qmc`): NumPy's
+    generator - about 0.3 ms to make at the start of a search between runs - is made only for a method that
+    draws with it (a list parameter's choice, CMA-ES's random start)."""
+    search = _island_search("island_2d", seed=1, budget=30, batch=1, stop="first").run()
+    assert search.first_failure is not None and search.sampler.stage == "gp"
+    assert "_rng" not in vars(search.sampler)
+
+
 def test_a_sobol_search_runs_sobols_sequence_digitally_shifted() -> None:
     """The ``sobol`` method runs SciPy's (unscrambled) Sobol points in their order, each XORed with one random
     shift drawn from the seed (a random digital shift: the points stay a net, every coordinate of the first 2**m

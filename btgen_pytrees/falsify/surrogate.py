@@ -71,7 +71,7 @@ _LONGEST = 4.0
 
 
 class Model:
-    """The model's state between batches (its length scales) and its generator."""
+    """The model's state between batches (its length scales) and its draws (the candidates' shifts, :mod:`.qmc`)."""
 
     def __init__(self, draws: Draws):
         self._np, self._lapack, self._ndtri = _libraries()
@@ -117,12 +117,12 @@ class Model:
         inverse = lapack.dtrtri(L, lower=1)[0]  # L^-1 (LAPACK's; a triangular solve with n right-hand sides is far slower)
         alpha = inverse.T @ (inverse @ r)
         ranked = ya.argsort(kind="stable")[:4]
-        turn, spread = _pattern(m_local, len(ranked))
+        turn, spread = local_pattern(m_local, len(ranked))
         centres = Xa[ranked[turn]]
         # written in place into one array (the same values as the sums and products spelt out: a small
         # array's every temporary costs more than its arithmetic): m Sobol points under one shift, the
         # first m - m_local uniform, the others through the normal quantile function (each centre's and
-        # spread's points a block of consecutive ones: a net of their own, see _pattern)
+        # spread's points a block of consecutive ones: a net of their own, see local_pattern)
         C = np.empty((m + (first is not None), d))
         draws.uniform(C[:m])
         local = C[m - m_local : m]
@@ -277,12 +277,13 @@ def _nugget(n: int) -> Any:
 
 
 @functools.lru_cache(maxsize=8)
-def _pattern(m_local: int, best: int) -> tuple[Any, Any]:
+def local_pattern(m_local: int, best: int) -> tuple[Any, Any]:
     """Which of the *best* runs each local candidate is drawn around, and at which spread (fixed arrays, never
     written: made once, not per batch): in blocks of consecutive candidates - each run's block split into one
     per spread - never in turns. The candidates are consecutive Sobol points, and every 4th point of Sobol's
     sequence lies in one quarter of its first coordinate: taken in turns, each run would get its normal
-    draws from one quarter of the normal distribution; a block of consecutive points is spread evenly."""
+    draws from one quarter of the normal distribution (and, with four runs and four spreads, one spread
+    each); a block of consecutive points is spread evenly."""
     import numpy as np
 
     turns = np.arange(m_local)

@@ -137,6 +137,12 @@ class Environment:
         self._flags = KeyMetaData()  # shared by the completion flags' keys (see the module docstring)
         self._clients: list[Client] = []
         self._keys: dict[tuple[str, ...], tuple[tuple[str, str], ...]] = {}  # values(): names -> (name, key) pairs
+        self.wanted: frozenset[str] | None = None
+        """The signals a run needs, by name, where the runner knows them; ``None`` (the default): every one.
+        A run that records no trace (a sweep's, a search's) of a tree made only of this package's nodes sets
+        the signals the tree's clients declared (:meth:`declared_signals`): no node reads any other, and no
+        trace samples them. A system may then publish only these (SUMO does: docs/sumo.md); it must publish
+        every signal it owns while this is ``None``."""
 
     # -- keys and clients ----------------------------------------------
     def signal_key(self, name: str) -> str:
@@ -171,6 +177,11 @@ class Environment:
             client.register_key(key, Access.READ)
         self._clients.append(client)
         return client
+
+    def declared_signals(self) -> frozenset[str]:
+        """The names of the signals this tree's clients declared, to read or to write (:meth:`attach`)."""
+        prefix, n = self._signals, len(self._signals)
+        return frozenset(key[n:] for client in self._clients for key in (*client.read, *client.write) if key.startswith(prefix))
 
     def release(self) -> None:
         """Unregister this tree's clients (their values stay on the blackboard); the tree's

@@ -86,7 +86,8 @@ class System(Protocol):
         """The system's time in seconds: the run's clock."""
 
     def publish(self, env: "Environment") -> None:
-        """Write the current value of every owned signal to *env* (before each tree tick)."""
+        """Write the current value of every owned signal to *env* (before each tree tick); where
+        ``env.wanted`` is a set of names (a run that records no trace), those are enough."""
 
     def tick(self) -> None:
         """Advance by one step (``case.tick`` seconds), after each tree tick."""

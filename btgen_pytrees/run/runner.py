@@ -53,6 +53,8 @@ from .scene import Scene
 __all__ = ["run", "run_tree", "create_system", "take_apart", "Trace"]
 
 _DONE = (Status.SUCCESS, Status.FAILURE)
+_PACKAGE = __name__.split(".")[0] + "."
+"""This package's module prefix (``btgen_pytrees.``): its nodes declare every signal they read."""
 
 
 def create_system(case: TestCase, registry: Registry | None = None) -> System:
@@ -111,9 +113,10 @@ def run_tree(
     visit = collector.visit
     last = case.ticks - 1
     stop = last if max_work is None else min(last, max_work // work_per_tick(case) - 1)  # the budget's last tick
-    saved = env.clock, env.system
+    saved = env.clock, env.system, env.wanted
     clock = VirtualClock()  # holds the system's time, read once per tick
     env.clock, env.system = clock, system
+    env.wanted = None if record or not _ours(root) else env.declared_signals()  # what the system must publish
     then = -math.inf
     try:
         try:
@@ -185,7 +188,7 @@ def run_tree(
                 if collector.ending is None or collector.ending[0] != "error":
                     collector.end("error", f"closing the system failed: {_system_error(case, exc)}")
             finally:
-                env.clock, env.system = saved
+                env.clock, env.system, env.wanted = saved
     collector.trace_end()
     return collector.report(require_complete=case.require_complete if require_complete is None else require_complete)
 
@@ -267,6 +270,12 @@ def _system_time(case: TestCase, now: Any, then: float) -> float:
     shown = repr(now)
     shown = shown if len(shown) <= 60 else type(now).__name__
     raise SystemFailure(f"the {case.system.type!r} system's now() returned {shown}, not a finite number of seconds")
+
+
+def _ours(root: py_trees.behaviour.Behaviour) -> bool:
+    """Whether every node of the tree is one of this package's (a plugin's or a host's node may read a signal it
+    did not declare: then the system publishes every signal, :attr:`Environment.wanted <btgen_pytrees.contracts.environment.Environment.wanted>`)."""
+    return all(type(node).__module__.startswith(_PACKAGE) for node in root.iterate())
 
 
 def _scene(system: System, collector: Collector) -> tuple[Scene | None, Any]:

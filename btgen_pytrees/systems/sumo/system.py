@@ -35,7 +35,8 @@ fails ("signal 'ego.gap' has no value") instead of passing on a stale number.
 
 Values are read with libsumo subscriptions (one call per step for all vehicles)
 and written straight into the tree's blackboard namespace (``<ns>/signals/``,
-see :mod:`btgen_pytrees.contracts.environment`).
+see :mod:`btgen_pytrees.contracts.environment`). A run that records no trace reads
+and writes only the signals its tree reads (``Environment.wanted``; :meth:`SumoSystem._plan`).
 """
 
 from __future__ import annotations
@@ -81,6 +82,10 @@ _SPEED, _POSITION, _LANE_INDEX, _LEADER, _ACCEL, _DISTANCE, _LATERAL = 0x40, 0x4
 _ANGLE = 0x43
 _VARIABLES = (_SPEED, _ACCEL, _POSITION, _LANE_INDEX, _LATERAL, _DISTANCE, _ANGLE)
 _PLACE = (_POSITION, _ANGLE)  # every other vehicle: where it is, for the replay page's scene
+_CORE = (_SPEED, _POSITION, _LANE_INDEX)
+"""What a tracked vehicle is always read for: its speed and lane (the action leaves ask), and where it is."""
+_OWN = {"accel": _ACCEL, "lateral": _LATERAL, "distance": _DISTANCE}
+"""The attributes read with a variable of their own when the run wants them (:attr:`Environment.wanted`)."""
 
 _active: "SumoSystem | None" = None
 """The simulation libsumo is running in this process, if any (read and changed only under :data:`_claim`)."""
@@ -281,7 +286,10 @@ class SumoSystem:
         self._started = False
         self._kept: _Kept | None = None  # the snapshot this run started from, when its simulation may be kept
         self._sound = True  # no step failed or was interrupted, no traffic light was switched: it may be kept
-        self._keys: list[tuple[str, str, str, str, tuple[str, ...]]] = []
+        self._keys: list[tuple[str, str | None, str | None, str | None, tuple[str | None, ...]]] = []
+        self._subscribe: dict[str, tuple[tuple[int, ...], bool]] = {}  # tracked vehicle -> (variables, its leader too)
+        self._scene = True  # every vehicle's place and heading are read, for the replay page's scene
+        self._sim_collisions = self._sim_vehicles = True  # sim.collisions and sim.vehicles are published
         self.timer: Callable[[], float] | None = None
         """A clock (e.g. :func:`time.process_time`) to fill :attr:`timing` with; ``None``: no timing."""
         self.timing = dict.fromkeys(("start", "sumo", "adapter", "close"), 0.0)
@@ -333,10 +341,8 @@ class SumoSystem:
             raise
         self._kept = kept
         self._lib, self._started = lib, True
-        self._namespace = prefix = env.namespace + "/signals/"
-        # each tracked vehicle's blackboard keys, made once: (vid, collided, present, lane, motion keys)
-        self._keys = [(vid, prefix + vid + ".collided", prefix + vid + ".present", prefix + vid + ".lane",
-                       tuple(prefix + vid + "." + a for a in _MOTION)) for vid in self.tracked]  # fmt: skip
+        self._namespace = env.namespace + "/signals/"
+        self._plan(env.wanted)
         if self.timer:
             self.timing["start"] += self.timer() - t0
         self._step()
@@ -409,11 +415,13 @@ class SumoSystem:
         vehicle, simulation = lib.vehicle, lib.simulation
         for vid in simulation.getDepartedIDList():
             if vid in self._tracked:
-                vehicle.subscribe(vid, _VARIABLES)
-                vehicle.subscribeLeader(vid, LOOKAHEAD)
+                variables, leader = self._subscribe[vid]
+                vehicle.subscribe(vid, variables)
+                if leader:
+                    vehicle.subscribeLeader(vid, LOOKAHEAD)
                 self.min_gap[vid] = vehicle.getMinGap(vid)
                 self.seen.add(vid)
-            else:
+            elif self._scene:
                 vehicle.subscribe(vid, _PLACE)
             self.sizes[vid] = (vehicle.getLength(vid), vehicle.getWidth(vid))
         self.results = vehicle.getAllSubscriptionResults() if self.sizes else {}
@@ -440,42 +448,87 @@ class SumoSystem:
             raise SystemFailure("the SUMO simulation is not running")
         storage, prefix, results = Blackboard.storage, self._namespace, self.results
         collided = self.collided
-        for vid, collided_key, present_key, lane_key, motion in self._keys:
+        for vid, collided_key, present_key, lane_key, motion in self._keys:  # a key is None where the run wants none
             r = results.get(vid)
-            storage[collided_key] = vid in collided
+            if collided_key is not None:
+                storage[collided_key] = vid in collided
             if r is None:
-                storage[present_key] = False
-                storage[lane_key] = -1
+                if present_key is not None:
+                    storage[present_key] = False
+                if lane_key is not None:
+                    storage[lane_key] = -1
                 for key in motion:
-                    storage.pop(key, None)
+                    if key is not None:
+                        storage.pop(key, None)
                 continue
-            speed = r[_SPEED]
-            x, y = r[_POSITION]
-            leader, distance = r[_LEADER] or ("", -1.0)
-            gap = distance + self.min_gap[vid] if leader else _INF
-            if gap <= LOOKAHEAD:  # SUMO reports a leader on the same lane however far ahead: none beyond LOOKAHEAD
-                ahead = results.get(leader)
-                closing = speed - (ahead[_SPEED] if ahead is not None and _SPEED in ahead
-                                   else self._lib.vehicle.getSpeed(leader))  # fmt: skip
-                ttc = 0.0 if gap <= 0 else gap / closing if closing > 0 else _INF
-            else:
-                gap = ttc = _INF
-            storage[present_key] = True
-            storage[lane_key] = r[_LANE_INDEX]
             k_speed, k_accel, k_x, k_y, k_lateral, k_distance, k_gap, k_ttc = motion  # the order of _MOTION
-            storage[k_speed] = speed
-            storage[k_accel] = r[_ACCEL]
-            storage[k_x] = x
-            storage[k_y] = y
-            storage[k_lateral] = r[_LATERAL]
-            storage[k_distance] = r[_DISTANCE]
-            storage[k_gap] = gap
-            storage[k_ttc] = ttc
-        storage[prefix + "sim.collisions"] = self.collisions
-        storage[prefix + "sim.vehicles"] = self.vehicle_count
+            speed = r[_SPEED]
+            if k_gap is not None or k_ttc is not None:
+                leader, distance = r[_LEADER] or ("", -1.0)
+                gap = distance + self.min_gap[vid] if leader else _INF
+                if gap <= LOOKAHEAD:  # SUMO reports a leader on the same lane however far ahead: none beyond LOOKAHEAD
+                    ahead = results.get(leader)
+                    closing = speed - (ahead[_SPEED] if ahead is not None and _SPEED in ahead
+                                       else self._lib.vehicle.getSpeed(leader))  # fmt: skip
+                    ttc = 0.0 if gap <= 0 else gap / closing if closing > 0 else _INF
+                else:
+                    gap = ttc = _INF
+                if k_gap is not None:
+                    storage[k_gap] = gap
+                if k_ttc is not None:
+                    storage[k_ttc] = ttc
+            if present_key is not None:
+                storage[present_key] = True
+            if lane_key is not None:
+                storage[lane_key] = r[_LANE_INDEX]
+            if k_speed is not None:
+                storage[k_speed] = speed
+            if k_x is not None or k_y is not None:
+                x, y = r[_POSITION]
+                if k_x is not None:
+                    storage[k_x] = x
+                if k_y is not None:
+                    storage[k_y] = y
+            if k_accel is not None:
+                storage[k_accel] = r[_ACCEL]
+            if k_lateral is not None:
+                storage[k_lateral] = r[_LATERAL]
+            if k_distance is not None:
+                storage[k_distance] = r[_DISTANCE]
+        if self._sim_collisions:
+            storage[prefix + "sim.collisions"] = self.collisions
+        if self._sim_vehicles:
+            storage[prefix + "sim.vehicles"] = self.vehicle_count
         if not self.spawns and self.vehicle_count == 0 and self._lib.simulation.getMinExpectedNumber() == 0:
             raise SystemFailure(f"the SUMO simulation has no vehicles left at {self.now():g} s (every vehicle has "
                                 "arrived) while the test is still running")  # fmt: skip
+
+    def _plan(self, wanted: frozenset[str] | None) -> None:
+        """What each step reads and publishes: every signal (*wanted* None), or only the *wanted* ones (a run that
+        records no trace: :attr:`Environment.wanted <btgen_pytrees.contracts.environment.Environment.wanted>`).
+        A tracked vehicle is always subscribed to its speed, place and lane (:data:`_CORE`: the action leaves
+        ask for the first and the last, and a subscription says whether it is in the network), to its leader
+        only for ``gap`` or ``ttc``, to ``accel``, ``lateral`` and ``distance`` only where wanted, to its
+        heading only for the scene; the other vehicles only for the scene. Fewer variables make SUMO's step
+        and the reading of its results cheaper (about 0.4 ms of a 6 ms ``cut_in_3d`` run in a search)."""
+        prefix = self._namespace
+
+        def key(name: str) -> str | None:
+            return prefix + name if wanted is None or name in wanted else None
+
+        self._scene = wanted is None
+        self._keys, self._subscribe = [], {}
+        for vid in self.tracked:
+            motion = tuple(key(f"{vid}.{a}") for a in _MOTION)
+            if wanted is None:
+                variables, leader = _VARIABLES, True
+            else:
+                variables = _CORE + tuple(v for a, v in _OWN.items() if f"{vid}.{a}" in wanted)
+                leader = f"{vid}.gap" in wanted or f"{vid}.ttc" in wanted
+            self._keys.append((vid, key(f"{vid}.collided"), key(f"{vid}.present"), key(f"{vid}.lane"), motion))
+            self._subscribe[vid] = (variables, leader)
+        self._sim_collisions = wanted is None or "sim.collisions" in wanted
+        self._sim_vehicles = wanted is None or "sim.vehicles" in wanted
 
     # -- the scene (the replay page's bird's-eye view; docs/systems.md) ---------
     def scene_map(self) -> dict[str, Any]:

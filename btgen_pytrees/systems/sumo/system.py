@@ -86,6 +86,8 @@ _CORE = (_SPEED, _POSITION, _LANE_INDEX)
 """What a tracked vehicle is always read for: its speed and lane (the action leaves ask), and where it is."""
 _OWN = {"accel": _ACCEL, "lateral": _LATERAL, "distance": _DISTANCE}
 """The attributes read with a variable of their own when the run wants them (:attr:`Environment.wanted`)."""
+_DIRECT = (("lane", _LANE_INDEX), ("speed", _SPEED), ("accel", _ACCEL), ("lateral", _LATERAL), ("distance", _DISTANCE))
+"""The attributes published as SUMO gives them, each from its variable."""
 
 _active: "SumoSystem | None" = None
 """The simulation libsumo is running in this process, if any (read and changed only under :data:`_claim`)."""
@@ -286,7 +288,7 @@ class SumoSystem:
         self._started = False
         self._kept: _Kept | None = None  # the snapshot this run started from, when its simulation may be kept
         self._sound = True  # no step failed or was interrupted, no traffic light was switched: it may be kept
-        self._keys: list[tuple[str, str | None, str | None, str | None, tuple[str | None, ...]]] = []
+        self._keys: list[tuple[Any, ...]] = []  # per tracked vehicle, its keys and what they are read from (_plan)
         self._subscribe: dict[str, tuple[tuple[int, ...], bool]] = {}  # tracked vehicle -> (variables, its leader too)
         self._scene = True  # every vehicle's place and heading are read, for the replay page's scene
         self._sim_collisions = self._sim_vehicles = True  # sim.collisions and sim.vehicles are published
@@ -448,8 +450,8 @@ class SumoSystem:
             raise SystemFailure("the SUMO simulation is not running")
         storage, prefix, results = Blackboard.storage, self._namespace, self.results
         collided = self.collided
-        for vid, collided_key, present_key, lane_key, motion in self._keys:  # a key is None where the run wants none
-            r = results.get(vid)
+        for vid, collided_key, present_key, lane_key, direct, x_key, y_key, gap_key, ttc_key, gone in self._keys:
+            r = results.get(vid)  # (a key is None where the run wants no such signal: _plan)
             if collided_key is not None:
                 storage[collided_key] = vid in collided
             if r is None:
@@ -457,13 +459,21 @@ class SumoSystem:
                     storage[present_key] = False
                 if lane_key is not None:
                     storage[lane_key] = -1
-                for key in motion:
-                    if key is not None:
-                        storage.pop(key, None)
+                for key in gone:
+                    storage.pop(key, None)
                 continue
-            k_speed, k_accel, k_x, k_y, k_lateral, k_distance, k_gap, k_ttc = motion  # the order of _MOTION
-            speed = r[_SPEED]
-            if k_gap is not None or k_ttc is not None:
+            if present_key is not None:
+                storage[present_key] = True
+            for key, variable in direct:  # lane, speed, accel, lateral, distance: SUMO's values as they are
+                storage[key] = r[variable]
+            if x_key is not None or y_key is not None:
+                x, y = r[_POSITION]
+                if x_key is not None:
+                    storage[x_key] = x
+                if y_key is not None:
+                    storage[y_key] = y
+            if gap_key is not None or ttc_key is not None:
+                speed = r[_SPEED]
                 leader, distance = r[_LEADER] or ("", -1.0)
                 gap = distance + self.min_gap[vid] if leader else _INF
                 if gap <= LOOKAHEAD:  # SUMO reports a leader on the same lane however far ahead: none beyond LOOKAHEAD
@@ -473,28 +483,10 @@ class SumoSystem:
                     ttc = 0.0 if gap <= 0 else gap / closing if closing > 0 else _INF
                 else:
                     gap = ttc = _INF
-                if k_gap is not None:
-                    storage[k_gap] = gap
-                if k_ttc is not None:
-                    storage[k_ttc] = ttc
-            if present_key is not None:
-                storage[present_key] = True
-            if lane_key is not None:
-                storage[lane_key] = r[_LANE_INDEX]
-            if k_speed is not None:
-                storage[k_speed] = speed
-            if k_x is not None or k_y is not None:
-                x, y = r[_POSITION]
-                if k_x is not None:
-                    storage[k_x] = x
-                if k_y is not None:
-                    storage[k_y] = y
-            if k_accel is not None:
-                storage[k_accel] = r[_ACCEL]
-            if k_lateral is not None:
-                storage[k_lateral] = r[_LATERAL]
-            if k_distance is not None:
-                storage[k_distance] = r[_DISTANCE]
+                if gap_key is not None:
+                    storage[gap_key] = gap
+                if ttc_key is not None:
+                    storage[ttc_key] = ttc
         if self._sim_collisions:
             storage[prefix + "sim.collisions"] = self.collisions
         if self._sim_vehicles:
@@ -519,14 +511,16 @@ class SumoSystem:
         self._scene = wanted is None
         self._keys, self._subscribe = [], {}
         for vid in self.tracked:
-            motion = tuple(key(f"{vid}.{a}") for a in _MOTION)
+            keys = {a: key(f"{vid}.{a}") for a in ATTRIBUTES}
+            direct = tuple((keys[a], v) for a, v in _DIRECT if keys[a] is not None)
+            gone = tuple(keys[a] for a in _MOTION if keys[a] is not None)  # no value while not in the network
+            self._keys.append((vid, keys["collided"], keys["present"], keys["lane"], direct, keys["x"], keys["y"],
+                               keys["gap"], keys["ttc"], gone))  # fmt: skip
             if wanted is None:
-                variables, leader = _VARIABLES, True
+                self._subscribe[vid] = (_VARIABLES, True)
             else:
-                variables = _CORE + tuple(v for a, v in _OWN.items() if f"{vid}.{a}" in wanted)
-                leader = f"{vid}.gap" in wanted or f"{vid}.ttc" in wanted
-            self._keys.append((vid, key(f"{vid}.collided"), key(f"{vid}.present"), key(f"{vid}.lane"), motion))
-            self._subscribe[vid] = (variables, leader)
+                variables = _CORE + tuple(v for a, v in _OWN.items() if keys[a] is not None)
+                self._subscribe[vid] = (variables, keys["gap"] is not None or keys["ttc"] is not None)
         self._sim_collisions = wanted is None or "sim.collisions" in wanted
         self._sim_vehicles = wanted is None or "sim.vehicles" in wanted
 

@@ -25,9 +25,9 @@ from __future__ import annotations
 
 import functools
 import random
-from typing import Any
+from typing import Any, Sequence
 
-__all__ = ["SOBOL_BITS", "sobol_points", "sobol_rows", "Draws"]
+__all__ = ["SOBOL_BITS", "sobol_points", "sobol_rows", "shifted_point", "Draws"]
 
 SOBOL_BITS = 30
 """Bits of a Sobol point's coordinates (SciPy's default)."""
@@ -56,6 +56,13 @@ def sobol_rows(d: int, m: int) -> tuple[tuple[int, ...], ...]:
     a time after a run, are XORed in Python - a NumPy call that follows a run costs tens of microseconds
     with the processor's caches cold, many times its warm cost."""
     return tuple(map(tuple, sobol_points(d, m).tolist()))
+
+
+def shifted_point(d: int, k: int, shift: Sequence[int]) -> list[float]:
+    """Point *k* of Sobol's sequence in *d* dimensions XORed with *shift*, in [0, 1): its bits exactly (the
+    start's points, one a run; worked out in Python, see :func:`sobol_rows`)."""
+    row = sobol_rows(d, max(6, k.bit_length()))[k]
+    return [(bits ^ s) * _SCALE for bits, s in zip(row, shift)]
 
 
 class Draws:

@@ -43,7 +43,7 @@ import math
 import warnings
 from typing import Any, Callable, Iterator, Sequence
 
-from .qmc import SOBOL_BITS, Draws, sobol_rows
+from .qmc import Draws, shifted_point
 from .space import Space
 from .surrogate import Model, quadratic_minimum
 
@@ -290,8 +290,7 @@ class Sampler:
         """The next point of the Sobol sequence, digitally shifted (a list parameter: its choice at that fraction)."""
         k = self._sobol
         self._sobol += 1
-        row = sobol_rows(len(self.space.dimensions), max(6, k.bit_length()))[k]
-        u = [(bits ^ shift) / 2.0**SOBOL_BITS for bits, shift in zip(row, self._shift)]
+        u = shifted_point(len(self.space.dimensions), k, self._shift)
         return [float(v) if d.continuous else float(min(len(d.choices) - 1, int(v * len(d.choices))))
                 for d, v in zip(self.space.dimensions, u)]  # fmt: skip
 

@@ -48,6 +48,7 @@ LAYERS: dict[str, int] = {
     # L4: what a case is made into
     "btgen_pytrees.load": 4,
     "btgen_pytrees.construct": 4,
+    "btgen_pytrees.openscenario": 4,
     # L5: views of a tree; L6: a run and what it leaves
     "btgen_pytrees.render": 5,
     "btgen_pytrees.run": 6,

@@ -1,0 +1,241 @@
+"""A concrete OpenSCENARIO file as a test-case document of this project (one case model).
+
+The file's parts (ASAM OpenSCENARIO 1.2, clause 7; 1.0: clause 8):
+
+* ``FileHeader`` - revision 1.0 to 1.3; ``description`` is the case's description.
+* ``ParameterDeclarations`` (:mod:`.parameters`), ``VariableDeclarations`` (signals),
+  ``CatalogLocations`` (:mod:`.catalogs`).
+* ``RoadNetwork/LogicFile`` - the OpenDRIVE file, the SUMO system's ``road`` (converted by
+  netconvert, cached by content: docs/opendrive.md). ``SceneGraphFile`` is a picture only (used,
+  no effect).
+* ``Entities`` - each ``ScenarioObject`` an entity of the SUMO system (``system.entities``: its
+  BoundingBox, category, performance), its name the vehicle's id and the prefix of its signals.
+* ``Storyboard/Init`` - ``TeleportAction`` s and step ``SpeedAction`` s give each entity's place and
+  speed at time 0; other init actions are entries that start at time 0.
+* ``Storyboard`` - the timeline (:mod:`.storyboard`) and the top-level ``stop``.
+
+The default pass criteria (docs/openscenario.md "Pass criteria"): no collision involving the ego,
+every event that started has completed. A sidecar oracle adds or replaces them (:mod:`.oracle`).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Mapping
+
+from .catalogs import Catalogs
+from .parameters import Scope
+from .storyboard import Timeline
+from .xmltree import Node, XmlProblem
+
+__all__ = ["convert_scenario", "REVISIONS", "EGO_NAMES", "DEFAULT_TIMEOUT", "DEFAULT_TICK", "Options"]
+
+REVISIONS = ((1, 0), (1, 1), (1, 2), (1, 3))
+EGO_NAMES = ("Ego", "ego", "hero")
+DEFAULT_TIMEOUT = 300.0
+"""Seconds a converted scenario may run before the verdict is ``timeout`` (its StopTrigger should end it first)."""
+DEFAULT_TICK = 0.1
+
+
+class Options:
+    """What the command line (or a sidecar) may set for a conversion."""
+
+    def __init__(self, ego: str | None = None, timeout: float | None = None, controllers: Mapping[str, str] | None = None):
+        self.ego, self.timeout, self.controllers = ego, timeout, dict(controllers or {})
+
+
+def header(root: Node, scope: Scope) -> tuple[int, int, str]:
+    head = root.need_child("FileHeader")
+    try:
+        revision = (int(head.need("revMajor")), int(head.need("revMinor")))
+    except ValueError:
+        raise XmlProblem(head, "revMajor and revMinor must be integers") from None
+    if revision not in REVISIONS:
+        raise XmlProblem(head, f"OpenSCENARIO {revision[0]}.{revision[1]} is not supported (1.0 to 1.3 are)")
+    description = head.attrs.get("description", "")
+    head.use_all()  # date, author, License, Properties: for people
+    return revision[0], revision[1], description
+
+
+def _entity(obj: Node, scope: Scope, catalogs: Catalogs) -> dict[str, Any]:
+    """A ScenarioObject's physical description for the SUMO system."""
+    body = None
+    inner = scope
+    for child in obj.children:
+        if child.tag in ("Vehicle", "Pedestrian", "MiscObject"):
+            body = child.use()
+        elif child.tag == "CatalogReference":
+            child.use()
+            catalog = scope.text(child, "catalogName") or ""
+            for kind in ("VehicleCatalog", "PedestrianCatalog", "MiscObjectCatalog"):
+                if kind in catalogs.dirs and catalog in catalogs.load(kind, child):
+                    body, inner = catalogs.resolve(kind, child, scope)
+                    break
+            else:
+                raise XmlProblem(child, f"catalog {catalog!r} is in no Vehicle, Pedestrian or MiscObject catalog directory")
+        elif child.tag in ("ExternalObjectReference", "EntitySelection"):
+            raise XmlProblem(child, f"{child.tag} is not supported")
+    if body is None:
+        raise XmlProblem(obj, "a ScenarioObject needs a Vehicle, Pedestrian, MiscObject or CatalogReference")
+    declarations = body.child("ParameterDeclarations")
+    if declarations is not None and inner is scope:
+        inner = Scope(scope)
+        inner.declare(declarations)
+    spec: dict[str, Any] = {}
+    box = body.need_child("BoundingBox")
+    center, dims = box.need_child("Center"), box.need_child("Dimensions")
+    spec["length"] = inner.number(dims, "length")
+    spec["width"] = inner.number(dims, "width")
+    spec["height"] = inner.number(dims, "height")
+    spec["center"] = [inner.number(center, "x"), inner.number(center, "y"), inner.number(center, "z")]
+    if body.tag == "Vehicle":
+        spec["category"] = inner.text(body, "vehicleCategory") or "car"
+        perf = body.child("Performance")
+        if perf is not None:
+            spec["max_speed"] = inner.number(perf, "maxSpeed")
+            spec["max_accel"] = inner.number(perf, "maxAcceleration")
+            spec["max_decel"] = inner.number(perf, "maxDeceleration")
+            for attr in ("maxAccelerationRate", "maxDecelerationRate"):  # 1.2: jerk limits, not modelled
+                inner.text(perf, attr)
+    elif body.tag == "Pedestrian":
+        spec["category"] = "pedestrian"
+        inner.text(body, "pedestrianCategory")
+        for attr in ("model", "modelName"):
+            inner.text(body, attr)
+    else:
+        spec["category"] = "misc"
+        inner.text(body, "miscObjectCategory")
+        inner.text(body, "model3d")
+    for attr in ("name", "mass", "role", "model3d"):
+        inner.text(body, attr)
+    for child in body.children:
+        if child.tag in ("Axles", "Properties"):  # wheel geometry and free properties: no effect on SUMO's motion
+            child.use_all()
+    return spec
+
+
+def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = None, options: Options | None = None,
+                     check_constraints: bool = True, case_dir: str | None = None) -> tuple[dict[str, Any], Catalogs]:  # fmt: skip
+    """The case document of the scenario *root* (read from *path*), its parameters set to *given*;
+    its files named relative to *case_dir* (default: the scenario's directory)."""
+    options = options or Options()
+    root.use()
+    scope = Scope()
+    _, _, description = header(root, scope)
+    declarations = root.child("ParameterDeclarations")
+    unknown = sorted(set(given or {}) - {d.attrs.get("name") for d in (declarations.children if declarations else [])})
+    if unknown:
+        raise XmlProblem(declarations or root, f"no parameter named {', '.join(map(repr, unknown))} is declared")
+    scope.declare(declarations, given, check=check_constraints)
+    base = os.path.dirname(os.path.abspath(path))
+    catalogs = Catalogs(root.child("CatalogLocations"), scope, base)
+    road_node = root.need_child("RoadNetwork")
+    logic = road_node.need_child("LogicFile")
+    road = scope.text(logic, "filepath") or ""
+    if not os.path.isfile(os.path.join(base, road)):
+        raise XmlProblem(logic, f"road network {road!r} not found (looked for {os.path.join(base, road)!r})")
+    for child in road_node.children:
+        if child.tag == "SceneGraphFile":  # 3D model for visualisation
+            child.use_all()
+        elif child.tag == "TrafficSignals":
+            raise XmlProblem(child, "TrafficSignals are not supported")
+        elif child.tag == "UsedArea":
+            child.use_all()
+    entities_node = root.need_child("Entities")
+    entities: dict[str, dict[str, Any]] = {}
+    for obj in entities_node.all("ScenarioObject"):
+        name = scope.text(obj, "name") or ""
+        if not name or not (name[0].isalpha()) or not name.replace("_", "a").isalnum():
+            raise XmlProblem(obj, f"entity name {name!r}: only names of letters, digits and _ (starting with a letter) are supported: they name signals")
+        if name in entities:
+            raise XmlProblem(obj, f"two entities are named {name!r}")
+        entities[name] = _entity(obj, scope, catalogs)
+        entities[name]["controller"] = False
+        ctrl = obj.child("ObjectController")
+        if ctrl is not None:  # assigned, not active until an ActivateControllerAction (7.3.5)
+            ref = ctrl.only()
+            if ref.tag == "CatalogReference":
+                entry, _ = catalogs.resolve("ControllerCatalog", ref, scope)
+                entry.use_all()
+            elif ref.tag == "Controller":
+                ref.use_all()
+            else:
+                raise XmlProblem(ref, f"{ref.tag} is not supported")
+    for child in entities_node.children:
+        if child.tag == "EntitySelection":
+            raise XmlProblem(child, "EntitySelection is not supported")
+    names = list(entities)
+    timeline = Timeline(scope, names, catalogs, options.controllers.get)
+    timeline.declare_variables(root.child("VariableDeclarations"))
+    board = root.need_child("Storyboard")
+    init = board.need_child("Init")
+    init_entries: list[str] = []
+    actions = init.need_child("Actions")
+    for part in actions.children:
+        part.use()
+        if part.tag == "Private":
+            actor = scope.text(part, "entityRef") or ""
+            if actor not in entities:
+                raise XmlProblem(part, f"entityRef={actor!r} names no entity (entities: {', '.join(names)})")
+            for pa in part.all("PrivateAction"):
+                kind, params = timeline.actions.private(pa, actor)
+                if kind == "sumo.teleport" and "position" not in entities[actor]:
+                    entities[actor]["position"] = params["position"]
+                elif kind == "sumo.speed" and params.get("shape") == "step" and "speed" not in entities[actor]:
+                    rel = params.get("relative")
+                    if rel is None:
+                        entities[actor]["speed"] = params["to"]
+                    else:
+                        if rel["type"] != "delta" or rel.get("continuous"):
+                            timeline.entries.append(_root_entry(timeline, actor, kind, params))
+                            continue
+                        entities[actor]["speed"] = {"entityRef": rel["entity"], "value": rel["value"], "type": "delta"}
+                else:
+                    init_entries.append(_root_entry(timeline, actor, kind, params)["id"])
+        elif part.tag == "GlobalAction":
+            inner = part.only()
+            if inner.tag in ("VariableAction", "ParameterAction"):
+                kind, params = timeline.actions.variable_action(inner)
+                timeline.signals[params["signal"]] = params["value"]  # at time 0: the initial value
+            elif inner.tag == "EnvironmentAction":
+                raise XmlProblem(inner, "EnvironmentAction is not supported (weather and light do not change SUMO's motion)")
+            else:
+                raise XmlProblem(inner, f"{inner.tag} is not supported")
+        elif part.tag == "UserDefinedAction":
+            raise XmlProblem(part, "UserDefinedAction is not supported")
+    for name, spec in entities.items():
+        if "position" not in spec:
+            raise XmlProblem(init, f"entity {name!r} has no TeleportAction in Init: its place at time 0 is unknown")
+    timeline.storyboard(board, [])
+    timeline.resolve_states()
+    ego = options.ego or next((n for n in EGO_NAMES if n in entities), None)
+    if options.ego is not None and options.ego not in entities:
+        raise XmlProblem(entities_node, f"--ego {options.ego!r} names no entity (entities: {', '.join(names)})")
+    criteria: list[dict[str, Any]] = []
+    if ego is not None:
+        criteria.append({"id": "no_collision", "type": "record", "expect": f"not {ego}.collided",
+                         "name": f"no collision involving the ego ({ego})"})  # fmt: skip
+    for event in timeline.events:
+        signal = timeline.state_of(event)
+        criteria.append({"id": f"completed-{event.id}"[:64], "type": "final", "expect": f"{signal} != 1",
+                         "name": f"event {event.name} completed if it started"[:200]})  # fmt: skip
+    stem = os.path.splitext(os.path.basename(path))[0]
+    doc: dict[str, Any] = {"name": stem[:200] or "scenario"}
+    if description:
+        doc["description"] = description[:100_000]
+    if case_dir is not None:
+        road = os.path.relpath(os.path.join(base, road), case_dir)
+    doc["system"] = {"type": "sumo", "road": road, "entities": entities}
+    doc["tick"] = DEFAULT_TICK
+    doc["timeout"] = options.timeout if options.timeout is not None else DEFAULT_TIMEOUT
+    if timeline.signals:
+        doc["signals"] = timeline.signals
+    doc["execute"] = timeline.entries
+    if timeline.stop:
+        doc["stop"] = timeline.stop
+    doc["oracle"] = {"relation": "&&", "criteria": criteria}
+    return doc, catalogs
+
+
+def _root_entry(timeline: Timeline, actor: str, kind: str, params: dict[str, Any]) -> dict[str, Any]:
+    return timeline.entry(f"init-{actor}-{kind.split('.')[-1]}", f"Init {actor} {kind.split('.')[-1]}", "behavior", kind, params, [])

@@ -272,8 +272,8 @@ def test_deterministic_distribution_is_the_product_in_order(tmp_path):
     sweep = read_openscenario(path)
     v = sweep.scenario_variations
     assert v.total == v.count == 6 and v.names == ("Decel", "Target")
-    assert [dict(p) for p in v.points()] == [{"Decel": d, "Target": t} for d in (1.0, 2.5, 4.0) for t in ("10", "20")]
-    doc = sweep.render({"Decel": 2.5, "Target": "20"})
+    assert [dict(p) for p in v.points()] == [{"Decel": d, "Target": t} for d in (1.0, 2.5, 4.0) for t in (10.0, 20.0)]
+    doc = sweep.render({"Decel": 2.5, "Target": 20.0})
     brake = next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]
     assert brake["rate"] == 2.5 and math.isclose(brake["to"], 20 / 3.6)
     assert doc["system"]["road"] == "road.xodr"
@@ -286,7 +286,7 @@ def test_variations_breaking_constraints_are_discarded(tmp_path):
     </DeterministicSingleParameterDistribution></Deterministic>"""), "v.xosc")
     v = read_openscenario(path).scenario_variations
     assert (v.total, v.count, v.discarded) == (4, 2, 2)
-    assert [dict(p)["Decel"] for p in v.points()] == ["3", "5"]
+    assert [dict(p)["Decel"] for p in v.points()] == [3.0, 5.0]
 
 
 STOCHASTIC = """<Stochastic numberOfTestRuns="200" randomSeed="7">
@@ -303,7 +303,7 @@ def test_stochastic_distribution_is_reproducible_and_respects_ranges(tmp_path):
     assert len(first) == 200 and [p[0] for p in first] == [("sample", i) for i in range(200)]
     decels = [dict(p)["Decel"] for p in first]
     assert all(2 <= d <= 6 for d in decels) and 3.7 < sum(decels) / 200 < 4.3
-    share = sum(dict(p)["Target"] == "10" for p in first) / 200
+    share = sum(dict(p)["Target"] == 10.0 for p in first) / 200
     assert 0.65 < share < 0.85  # weight 3 of 4
 
 
@@ -376,3 +376,45 @@ def test_corpus_variation_counts_are_the_products():
     for point in rng.sample(points, 3):  # a variation's document carries its values
         doc = small.render(dict(point))
         assert doc["system"]["road"].startswith("concrete_scenarios/road_networks/")
+
+
+# -- coverage ---------------------------------------------------------------------------------------
+
+def test_coverage_names_unsupported_elements_and_fits_its_schema(tmp_path, capsys):
+    import json
+
+    import jsonschema
+
+    from btgen_pytrees.cli import main
+
+    write(tmp_path, scenario(BRAKE, PARAMS))
+    write(tmp_path, scenario(BRAKE.replace("<Maneuver name=\"M\">", "<Maneuver name=\"M\"><Frobnicate/>"), PARAMS), "bad.xosc")
+    assert main(["coverage", str(tmp_path), "--format", "json"]) == 1
+    data = json.loads(capsys.readouterr().out)
+    schema = json.loads((pathlib.Path(__file__).parent.parent / "schemas" / "coverage.schema.json").read_text())
+    jsonschema.validate(data, schema)
+    by_file = {f["file"]: f for f in data["files"]}
+    assert by_file["s.xosc"]["converts"] and not by_file["bad.xosc"]["converts"]
+    assert by_file["bad.xosc"]["problems"] == ["/OpenSCENARIO/Storyboard/Story[@name='S']/Act[@name='A']/ManeuverGroup[@name='G']/"
+                                               "Maneuver[@name='M']/Frobnicate: unsupported element Frobnicate: not converted (see docs/openscenario.md)"]
+    rows = {r["element"]: r for r in data["elements"]}
+    assert rows["Frobnicate"] == {"element": "Frobnicate", "occurrences": 1, "supported": 0, "unsupported": 1}
+    assert rows["SpeedAction"]["unsupported"] == 0 and rows["SpeedAction"]["occurrences"] == 4
+    assert main(["coverage", str(tmp_path / "s.xosc")]) == 0
+    assert "1 of 1 files convert" in capsys.readouterr().out
+
+
+@need_corpus
+def test_corpus_coverage_is_complete():
+    from btgen_pytrees.openscenario.coverage import coverage
+    data = coverage(str(CORPUS))
+    assert data["summary"]["files"] == 30 and data["summary"]["converting"] == 30
+    assert data["summary"]["fully_supported"] == data["summary"]["elements"]
+
+
+@need_corpus
+def test_docs_table_is_what_the_coverage_command_prints():
+    from btgen_pytrees.openscenario.coverage import coverage, markdown
+    text = (pathlib.Path(__file__).parent.parent / "docs" / "openscenario.md").read_text(encoding="utf-8")
+    shown = text.split("<!-- coverage:alks:begin -->\n")[1].split("<!-- coverage:alks:end -->")[0]
+    assert shown == markdown(coverage(str(CORPUS)))

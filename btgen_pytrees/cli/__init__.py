@@ -27,14 +27,15 @@ from ..writing import divert_stdout
 from ..parallel import Interrupted
 from ..supervise import supervised
 from ..text import did_you_mean
-from . import falsify, run, schema, show, sweep, validate
+from . import falsify, openscenario, run, schema, show, sweep, validate
 from .options import MAX_JOBS, Parser, check_jobs, parents
 from .terminal import err, report_invalid
 
 __all__ = ["main", "MAX_JOBS"]
 
-COMMANDS = ("show", "validate", "run", "expand", "falsify", "schema")
-_SUB_PARSERS = (show.add_parser, validate.add_parser, run.add_parser, sweep.add_parser, falsify.add_parser, schema.add_parser)
+COMMANDS = ("show", "validate", "run", "expand", "falsify", "schema", "coverage")
+_SUB_PARSERS = (show.add_parser, validate.add_parser, run.add_parser, sweep.add_parser, falsify.add_parser, schema.add_parser,
+                openscenario.add_parser)
 """Each command's own sub-parser, in the order of :data:`COMMANDS` (``expand`` is the sweep's)."""
 
 

@@ -18,7 +18,7 @@ from ..errors import InvalidTestCase
 from .parameters import Scope
 from .xmltree import Node, XmlProblem, read_xml
 
-__all__ = ["Catalogs", "KINDS", "MAX_CATALOG_FILES", "CACHE_SIZE"]
+__all__ = ["Catalogs", "KINDS", "MAX_CATALOG_FILES", "CACHE_SIZE", "forget"]
 
 KINDS = ("VehicleCatalog", "ControllerCatalog", "PedestrianCatalog", "MiscObjectCatalog", "EnvironmentCatalog",
          "ManeuverCatalog", "TrajectoryCatalog", "RouteCatalog")  # fmt: skip
@@ -31,6 +31,12 @@ _CACHE: "OrderedDict[tuple[str, int, int], Node]" = OrderedDict()
 CACHE_SIZE = 64
 """Catalog files kept parsed (a sweep converts its scenario once per variation), each by its real path,
 size and modification time: an edited file is read again."""
+
+
+def forget() -> None:
+    """Drop the parsed catalog files (their nodes remember which entries a conversion used: the coverage
+    of one scenario starts from none)."""
+    _CACHE.clear()
 
 
 def _read_cached(path: str) -> Node:

@@ -30,7 +30,7 @@ from typing import Any, Callable, Iterator, Mapping
 from ..errors import InvalidTestCase, Problem
 from .distributions import Axis, Distribution, parse_distribution
 from .oracle import Sidecar, read_sidecar
-from .parameters import Scope
+from .parameters import Scope, convert_value
 from .scenario import Options, convert_scenario, header
 from .xmltree import CAUSE, Node, XmlProblem, problem, read_xml, unused
 
@@ -80,9 +80,11 @@ def convert_file(path: str, given: Mapping[str, Any] | None = None, options: Opt
 class ScenarioVariations:
     """A distribution's variations as the sweep asks for them (the interface of ``load.variations.Variations``)."""
 
-    def __init__(self, distribution: Distribution, keep: Callable[[tuple[tuple[str, Any], ...]], bool]):
+    def __init__(self, distribution: Distribution, keep: Callable[[tuple[tuple[str, Any], ...]], bool],
+                 types: Mapping[str, str] | None = None):  # fmt: skip
         self.distribution = distribution
         self.keep = keep
+        self.types = dict(types or {})
         self._kept: list[int] | None = None
         self.axes = tuple(_box(distribution))
         self.samples = distribution.runs
@@ -119,10 +121,11 @@ class ScenarioVariations:
         return tuple(_Named(n) for n in self.distribution.names) if self.distribution.stochastic else ()
 
     def points(self) -> Iterator[tuple[tuple[str, Any], ...]]:
+        """The kept variations, each value of its parameter's declared type (``"3"`` of an int parameter is 3)."""
         kept = set(self._indices())
         for i, p in enumerate(self.distribution.points()):
             if i in kept:
-                yield p
+                yield tuple((k, v if k == "sample" else _typed(v, self.types.get(k, "string"))) for k, v in p)
 
 
 class _Named:
@@ -139,6 +142,13 @@ class _BoxAxis:
     @property
     def random(self) -> bool:
         return self.kind in ("uniform", "normal")
+
+
+def _typed(value: Any, kind: str) -> Any:
+    try:
+        return convert_value(value, kind)
+    except ValueError:
+        return value  # discarded by its constraints or refused when converted, with the reason
 
 
 def _number(x: Any) -> Any:
@@ -250,7 +260,8 @@ def _sweep(root: Node, path: str, options: Options, sidecar: Sidecar) -> Scenari
         given = {k: v for k, v in values.items() if k in declared}
         return sidecar.apply(convert_file(scenario, given, options, case_dir=here, root=scenario_root, check=False), path)
 
-    variations = ScenarioVariations(distribution, keep)
+    types = {str(d.attrs.get("name")): d.attrs.get("parameterType", "string") for d in declared.values()}
+    variations = ScenarioVariations(distribution, keep, types)
     doc = sidecar.apply(document, path)
     doc["name"] = os.path.splitext(os.path.basename(path))[0] or doc["name"]
     doc["variations"] = _block(variations)

@@ -1,0 +1,134 @@
+"""Which elements of which OpenSCENARIO files the conversion supports (``python -m btgen_pytrees coverage DIR``).
+
+Every ``.xosc`` file under a directory is read as the loader reads it (catalog files are counted
+through the scenarios that use them, not on their own). For each file: its kind (scenario,
+distribution, catalog), whether it converts, its problems; and over all files, per element name,
+how often it occurs and how often the conversion used it. An element of a file that could not be
+converted past a problem counts as *unknown* beyond that problem, never as supported. The result is
+data (:func:`coverage`), shown as a table (:func:`table`, :func:`markdown`) or as JSON
+(``schemas/coverage.schema.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import Counter
+from typing import Any, Iterator
+
+from ..errors import InvalidTestCase
+from .catalogs import forget
+from .convert import scan
+from .distributions import parse_distribution
+from .parameters import Scope
+from .scenario import Options, convert_scenario, header
+from .xmltree import Node, XmlProblem, read_xml
+
+__all__ = ["coverage", "table", "markdown", "to_json", "MAX_FILES"]
+
+MAX_FILES = 10_000
+
+
+def _files(top: str) -> Iterator[str]:
+    if os.path.isfile(top):
+        yield top
+        return
+    found = []
+    for base, dirs, names in os.walk(top):
+        dirs.sort()
+        found.extend(os.path.join(base, n) for n in names if n.lower().endswith(".xosc"))
+    yield from sorted(found)[:MAX_FILES]
+
+
+def _tally(root: Node, into: dict[str, Counter[str]]) -> None:
+    for node in root.walk():
+        into.setdefault(node.tag, Counter())["total"] += 1
+        into[node.tag]["supported" if node.used else "unsupported"] += 1
+
+
+def coverage(top: str) -> dict[str, Any]:
+    """The coverage of the ``.xosc`` files under *top* (a directory or one file)."""
+    files: list[dict[str, Any]] = []
+    elements: dict[str, Counter[str]] = {}
+    for path in _files(top):
+        entry: dict[str, Any] = {"file": os.path.relpath(path, top) if os.path.isdir(top) else os.path.basename(path)}
+        try:
+            root = read_xml(path)
+        except InvalidTestCase as exc:
+            entry.update(kind="unreadable", converts=False, problems=[f"{p.pointer}: {p.message}" for p in exc.problems])
+            files.append(entry)
+            continue
+        kinds = {c.tag for c in root.children}
+        kind = "catalog" if "Catalog" in kinds else "distribution" if "ParameterValueDistribution" in kinds else "scenario"
+        entry["kind"] = kind
+        if kind == "catalog":
+            continue  # counted through the scenarios that use its entries
+        problems: list[str] = []
+        catalogs = None
+        forget()  # this file's catalog entries only
+        try:
+            root.use()
+            if kind == "distribution":
+                header(root, Scope())
+                parse_distribution(root, Scope())
+            else:
+                _, catalogs = convert_scenario(root, path, options=Options())
+        except XmlProblem as exc:
+            problems.append(f"{'/' + '/'.join(exc.node.path) if exc.node else '/'}: {exc.message}")
+            if exc.node is not None:
+                exc.node.used = False
+        except InvalidTestCase as exc:
+            problems.extend(f"{p.pointer}: {p.message}" for p in exc.problems)
+        if not problems:
+            from_scan = scan(root, catalogs) if catalogs is not None else scan(root, _NoCatalogs())
+            problems.extend(f"{p.pointer}: {p.message}" for p in from_scan)
+        _tally(root, elements)
+        if catalogs is not None:
+            for cat in catalogs.files:
+                for catalog in cat.children:
+                    for item in catalog.children:
+                        if item.used:
+                            _tally(item, elements)
+        entry.update(converts=not problems, problems=problems)
+        files.append(entry)
+    rows = [{"element": tag, "occurrences": c["total"], "supported": c["supported"], "unsupported": c["unsupported"]}
+            for tag, c in sorted(elements.items())]  # fmt: skip
+    converted = [f for f in files if f.get("kind") in ("scenario", "distribution")]
+    return {"directory": os.path.basename(os.path.normpath(top)), "files": converted,
+            "elements": rows, "summary": {"files": len(converted), "converting": sum(f["converts"] for f in converted),
+                                          "elements": len(rows), "fully_supported": sum(r["unsupported"] == 0 for r in rows)}}  # fmt: skip
+
+
+class _NoCatalogs:
+    files: list[Node] = []
+
+
+def table(data: dict[str, Any]) -> str:
+    """Two plain-text tables: the files, then the elements."""
+    lines = [f"{'file':<70} {'kind':<12} status"]
+    for f in data["files"]:
+        lines.append(f"{f['file'][:70]:<70} {f['kind']:<12} {'ok' if f['converts'] else str(len(f['problems'])) + ' problem(s)'}")
+        lines.extend(f"    {p}" for p in f["problems"][:5])
+    lines.append("")
+    lines.append(f"{'element':<45} {'occurrences':>11} {'supported':>9} {'unsupported':>11}")
+    for r in data["elements"]:
+        lines.append(f"{r['element']:<45} {r['occurrences']:>11} {r['supported']:>9} {r['unsupported']:>11}")
+    s = data["summary"]
+    lines.append("")
+    lines.append(f"{s['converting']} of {s['files']} files convert; {s['fully_supported']} of {s['elements']} element names fully supported")
+    return "\n".join(lines) + "\n"
+
+
+def markdown(data: dict[str, Any]) -> str:
+    """The elements table as Markdown (the table docs/openscenario.md shows)."""
+    lines = ["| element | occurrences | supported |", "|---|---:|---:|"]
+    for r in data["elements"]:
+        lines.append(f"| `{r['element']}` | {r['occurrences']} | {r['supported']} |")
+    s = data["summary"]
+    lines.append("")
+    lines.append(f"{s['converting']} of {s['files']} files convert; {s['fully_supported']} of {s['elements']} element names fully supported.")
+    return "\n".join(lines) + "\n"
+
+
+def to_json(data: dict[str, Any]) -> str:
+    return json.dumps(data, indent=2, ensure_ascii=False) + "\n"

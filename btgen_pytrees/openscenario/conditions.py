@@ -171,7 +171,7 @@ class ConditionWriter:
         if tag == "StandStillCondition":
             return f"{t}.still >= {number(s.number(c, 'duration'))}"
         if tag == "TraveledDistanceCondition":
-            return f"{t}.odometer >= {number(s.number(c, 'value'))}"
+            return f"{t}.distance >= {number(s.number(c, 'value'))}"
         if tag == "EndOfRoadCondition":
             duration = s.number(c, "duration")
             if duration != 0:

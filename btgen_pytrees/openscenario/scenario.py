@@ -181,6 +181,8 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
                 kind, params = timeline.actions.private(pa, actor)
                 if kind == "sumo.teleport" and "position" not in entities[actor]:
                     entities[actor]["position"] = params["position"]
+                elif kind == "sumo.controller":  # active from time 0: SUMO's driver model (or the named controller)
+                    entities[actor]["controller"] = params.get("name", True)
                 elif kind == "sumo.speed" and params.get("shape") == "step" and "speed" not in entities[actor]:
                     rel = params.get("relative")
                     if rel is None:

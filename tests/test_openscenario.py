@@ -110,7 +110,11 @@ def test_storyboard_becomes_entries_with_triggers_and_stop(tmp_path):
     state = doc["stop"][0]["when"].split()[0]
     assert doc["stop"] == [{"when": f"{state} == 2", "edge": "rising", "delay": 2.0}]
     setters = [e for e in doc["execute"] if e["action"] == "set" and e["params"]["signal"] == state]
-    assert [(s["params"]["value"], s["after"]) for s in setters] == [(1, ["Brake"]), (2, ["BrakeAction"])]
+    assert [(s["params"]["value"], s["after"]) for s in setters] == [(1, ["Brake"]), (2, ["BrakeAction", setters[0]["id"]])]
+    assert setters[1]["join"] == "all"
+    # the storyboard runs until its StopTrigger: an entry that never succeeds keeps the timeline running
+    assert doc["execute"][0] == {"id": "Storyboard", "kind": "constraint", "action": "until", "params": {"expect": "false"},
+                                 "name": "Storyboard (until its StopTrigger)"}
     assert doc["signals"][state] == 0
     # the Init: places and speeds of the entities
     ego = doc["system"]["entities"]["Ego"]

@@ -180,6 +180,9 @@ class Timeline:
 
     # -- the storyboard --------------------------------------------------------------------------
     def storyboard(self, board: Node, init_after: list[str]) -> None:
+        # the storyboard runs until its StopTrigger (7.6.2), not until its stories are done: an entry that
+        # never succeeds keeps the timeline running (the stop stops it; without a StopTrigger the run times out)
+        self.entry("Storyboard", "Storyboard (until its StopTrigger)", "constraint", "until", {"expect": "false"}, [])
         for story in board.all("Story"):
             self.story(story, init_after)
         stop = board.child("StopTrigger")
@@ -341,10 +344,11 @@ class Timeline:
         if element.state is None:
             element.state = self.signal(f"state_{element.kind}_{element.name}", 0)
             start = [element.id] if element.kind != "action" else [element.parent.id]  # type: ignore[union-attr]
-            self.entry(f"{element.id}-started", f"{element.kind} {element.name} running", "behavior", "set",
-                       {"signal": element.state, "value": 1}, start)  # fmt: skip
+            started = self.entry(f"{element.id}-started", f"{element.kind} {element.name} running", "behavior", "set",
+                                 {"signal": element.state, "value": 1}, start)  # fmt: skip
+            # after its start's too: an element that completes on the tick it starts is running, then complete
             self.entry(f"{element.id}-complete", f"{element.kind} {element.name} complete", "behavior", "set",
-                       {"signal": element.state, "value": 2}, self._leaves(element), join="all")  # fmt: skip
+                       {"signal": element.state, "value": 2}, [*self._leaves(element), started["id"]], join="all")  # fmt: skip
         return element.state
 
     def _leaves(self, element: Element) -> list[str]:

@@ -16,7 +16,8 @@ mostly measures the queue for a core:
   published, the tick and the collector's visit) ``--ticks`` times at one moment of a run, without SUMO
   stepping between the ticks - the tick's own cost, without the cache misses a SUMO step leaves.
 
-The figures are in docs/performance.md ("A small run inside a search").
+The figures are in docs/performance.md ("A SUMO run inside a search"), how they came about in
+docs/performance-history.md ("A small run inside a search").
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 Most test cases are valid. For them the loader only needs to know *that* the
 document fits the schema, and fastjsonschema (which compiles a schema to Python
-code) answers that 10-25 times faster than jsonschema walks it (see
-``docs/performance.md``). Only a document it rejects is walked by jsonschema,
+code) answers that 10-25 times faster than jsonschema walks it (the schema
+table of ``python -m benchmarks.run``, ``benchmarks/schemas.py``). Only a document it rejects is walked by jsonschema,
 whose errors (with JSON paths, all of them) are what users see. Both use
 Python's ``re`` for ``pattern``, so they agree on strings; the fast path is used
 only for schemas written in the draft-07 vocabulary both implement the same way

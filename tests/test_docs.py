@@ -55,3 +55,37 @@ def test_toml_blocks(where: str, body: str) -> None:
 def test_docs_exist() -> None:
     names = {p.name for p in DOCS}
     assert {"README.md", "format.md", "algorithms.md", "embedding.md"} <= names
+
+
+LINK = re.compile(r"\]\(([^)\s]+)\)")
+FENCED = re.compile(r"^( *)```.*?^\1```", re.S | re.M)
+
+
+def anchors(path: pathlib.Path) -> set[str]:
+    """The anchors GitHub gives a Markdown file's headings (code blocks left out)."""
+    seen: dict[str, int] = {}
+    found = set()
+    for line in FENCED.sub("", path.read_text(encoding="utf-8")).splitlines():
+        if not line.startswith("#"):
+            continue
+        slug = re.sub(r"[^\w\- ]", "", line.lstrip("#").strip().lower()).replace(" ", "-")
+        count = seen.get(slug, 0)
+        seen[slug] = count + 1
+        found.add(slug if count == 0 else f"{slug}-{count}")
+    return found
+
+
+def test_relative_links_and_their_anchors_exist() -> None:
+    """Every relative link in README.md and docs/*.md names a file that exists, and its #anchor a heading there."""
+    broken = []
+    for path in DOCS:
+        for target in LINK.findall(FENCED.sub("", path.read_text(encoding="utf-8"))):
+            if re.match(r"[a-z]+:", target):
+                continue  # http:, https:, mailto:
+            name, _, anchor = target.partition("#")
+            linked = (path.parent / name).resolve() if name else path
+            if not linked.exists():
+                broken.append(f"{path.name}: {target} (no such file)")
+            elif anchor and linked.suffix == ".md" and anchor not in anchors(linked):
+                broken.append(f"{path.name}: {target} (no such heading)")
+    assert not broken, "\n".join(broken)

@@ -14,7 +14,7 @@ uniform ones over the box, and normal ones around the best runs. All three come 
 
 Why not NumPy's generator: making one (``numpy.random.default_rng(seed)``: a ``SeedSequence``, a
 ``PCG64``, a ``Generator``) cost about 0.3 ms at the start of every search - a tenth of a search's own
-cost at batch 1 on runs of 1 ms, where the code runs cold after the runs (docs/performance.md) -
+cost at batch 1 on runs of 1 ms, where the code runs cold after the runs (docs/performance-history.md) -
 while a ``random.Random`` is made in about 40 us, and its bits are all a shift needs. Sobol
 candidates also cover the box more evenly than uniform ones (BoTorch draws its acquisition's raw
 samples the same way). NumPy's generator is still made, from the same seed, where a method needs

@@ -23,7 +23,7 @@ The generator's Sequences are :class:`Sequence`: py_trees' own with a leaner ``t
 
 A small run ticks a handful of Parallels on every tick (the tree's root, the ``roots`` of the
 timeline, the oracle and its groups): the ``cut_in_3d`` SUMO case of ``benchmarks/falsify.py``
-ticks four per tick, about 90 ticks per run (docs/performance.md). ``tests/test_composites.py``
+ticks four per tick, about 90 ticks per run (docs/performance-history.md). ``tests/test_composites.py``
 ticks trees made of these and of py_trees' own classes side by side and compares every node's
 status, ``current_child`` and the nodes yielded, on every tick.
 """

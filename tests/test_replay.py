@@ -289,3 +289,27 @@ def test_browser_a_signal_that_ended_has_no_value_and_its_curve_a_gap(tmp_path: 
             shown.append(page_status(driver)["signals"]["car.speed"])
             body.send_keys(Keys.ARROW_RIGHT)
         assert shown == ["\u2014", "\u2014", "2", "3", "4", "\u2014", "\u2014", "7", "8", "\u2014"]
+
+
+def test_the_page_is_made_of_package_data_files() -> None:
+    """The page's HTML, style and script are files of the package (read with importlib.resources), listed as
+    package data so that a wheel carries them; the page is the template with those files put in, unchanged."""
+    tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
+    from fnmatch import fnmatch
+
+    from btgen_pytrees.run.replay import asset
+
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]["package-data"]
+    package = ROOT / "btgen_pytrees"
+    data = [p.relative_to(package).as_posix() for p in package.rglob("*")
+            if p.is_file() and p.suffix not in (".py", ".pyc") and "__pycache__" not in p.parts]  # fmt: skip
+    assert {"run/replay.html", "run/replay.css", "run/replay.js"} <= set(data)
+    assert [name for name in data if not any(fnmatch(name, glob) for glob in declared["btgen_pytrees"])] == []
+    page, _, _ = page_of(FAILING)
+    template = asset("replay.html")
+    for name, slot in (("replay.css", "@STYLE@"), ("replay.js", "@SCRIPT@")):
+        text = (package / "run" / name).read_text(encoding="utf-8")
+        assert asset(name) == text and slot in template and text in page
+    before, _, after = template.partition("@DATA@")
+    assert page.startswith(before.split("@TITLE@")[0]) and page.endswith(after.split("@SCRIPT@")[1])
+    assert not re.search(r"@(TITLE|STYLE|SCRIPT|DATA)@", page)

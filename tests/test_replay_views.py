@@ -171,6 +171,41 @@ def test_a_500_entry_case_is_usable(tmp_path: pathlib.Path, no_dot: None) -> Non
         assert js(driver, "window.btgenReplay.shown()") == len(report.trace.nodes)
 
 
+def leaves_in_view(driver: Any) -> list[str]:
+    """The ids of the leaves drawn wholly inside the tree's box (a leaf: a node with nothing to expand or collapse)."""
+    return js(driver, """(() => { const t = document.getElementById('tree').getBoundingClientRect();
+      return Array.from(document.querySelectorAll('#tree g.node')).filter((g) => !g.querySelector('title').textContent.includes('(click'))
+        .filter((g) => { const r = g.querySelector('rect').getBoundingClientRect();
+          return r.left >= t.left && r.right <= t.right + 0.5 && r.top >= t.top && r.bottom <= t.bottom + 0.5; })
+        .map((g) => g.dataset.id || g.dataset.node); })()""")  # fmt: skip
+
+
+@needs_chromium
+@pytest.mark.parametrize("source", [FAILING, CUT_IN, "500 entries"])
+def test_the_page_opens_on_the_failing_node_readable(source: str, tmp_path: pathlib.Path, no_dot: None) -> None:
+    """At 1400 x 900 the page opened on the root at 100 %, with no leaf in view (the failing criterion off-screen),
+    or fitted to an unreadable strip. It opens on the criterion that failed first (else on the first criterion),
+    drawn inside the tree's box at a readable zoom, its ancestors open; the jump button shows it again."""
+    if source == CUT_IN and importlib.util.find_spec("libsumo") is None and not os.environ.get("CI"):
+        pytest.skip("libsumo is not installed (CI installs it)")
+    path, report, loaded = write_page(tmp_path, timeline_case() if source == "500 entries" else source, "open")
+    failing = [o.id for o in report.oracles if o.verdict == "fail"]
+    assert failing == (["R1"] if source != "500 entries" else [])
+    focus = report.trace.node_index("R1")  # the failed criterion, or the first one of a passing run
+    with chromium() as driver:
+        driver.set_window_size(1400, 900)
+        driver.get(path.as_uri())
+        assert js(driver, "window.btgenReplay.focus()") == focus
+        node = f"#tree g.node[data-node='{focus}']"
+        assert inside(node_box(driver, node + " rect"), tree_box(driver)) and label_px(driver, node) >= 10
+        assert "R1" in leaves_in_view(driver)
+        if failing:
+            assert driver.find_element("css selector", node).get_attribute("data-status") == "failure"
+            driver.find_element("id", "fit").click()
+            driver.find_element("id", "jumps").find_element("tag name", "button").click()  # "R1 failed at ..."
+            assert inside(node_box(driver, node + " rect"), tree_box(driver)) and label_px(driver, node) >= 10
+
+
 # -- 8. the scene ------------------------------------------------------------------------------------------
 
 

@@ -52,7 +52,7 @@ def add_parser(sub: Any, parents: Parents) -> None:
     parser.add_argument("--batch", type=int, metavar="N", help="runs asked and run together (default: search.batch, else the runs that can run at once: --jobs, or the Dask cluster's workers)")
     parser.add_argument("--stop", choices=("first", "all"), help="first: stop after the first failure's cluster is shrunk and bounded; all (default): search to the end of the budget")
     parser.add_argument("--json", metavar="REPORT", help="write the search as JSON (schemas/falsify.schema.json)")
-    parser.add_argument("--plot", metavar="PATH", help="draw convergence and the parameter space coloured by margin (.svg/.png; needs the 'plot' extra)")
+    parser.add_argument("--plot", metavar="PATH", help="draw convergence and the parameter space coloured by margin (.svg, .png or .html; needs the 'plot' extra)")
     add_executor_options(parser)
     parser.set_defaults(func=cmd_falsify)
 

@@ -153,6 +153,13 @@
     if (g && !tree.dragged()) toggle(Number(g.dataset.node));
   });
   const fitTree = () => tree.fit(bounds[0], bounds[1], bounds[2], bounds[3], 1.5);
+  const READABLE = 0.85;  // the least zoom at which a node's name (12 px) reads as 10 px or more
+  function reveal(i, s) {  // node i in the middle of the view at zoom s, its ancestors opened
+    for (let a = parent[i]; a >= 0; a = parent[a]) collapsed[a] = 0;
+    layout();
+    const [x, y, w] = pos.get(i);
+    tree.centre(x + w / 2, y, s);
+  }
   $("zoom-in").addEventListener("click", () => tree.zoom(1.25));
   $("zoom-out").addEventListener("click", () => tree.zoom(0.8));
   $("fit").addEventListener("click", fitTree);
@@ -166,12 +173,9 @@
     if (!matches.length) { $("found").textContent = q ? "no node matches" : ""; return; }
     matchAt = (matchAt + 1) % matches.length;
     const i = matches[matchAt];
-    for (let a = parent[i]; a >= 0; a = parent[a]) collapsed[a] = 0;
     if (found >= 0 && gEls.has(found)) gEls.get(found).classList.remove("found");
     found = i;
-    layout();
-    const [x, y, w] = pos.get(i);
-    tree.centre(x + w / 2, y, Math.max(tree.view.s, 1));
+    reveal(i, Math.max(tree.view.s, 1));
     $("found").textContent = (matchAt + 1) + " of " + matches.length + ": " + label(i);
   }
   $("search").addEventListener("keydown", (ev) => { if (ev.key === "Enter") { ev.preventDefault(); search($("search").value); } ev.stopPropagation(); });
@@ -380,26 +384,32 @@
     else if (ev.key === "-") tree.zoom(0.8);
   });
   const tickOf = (t) => { let best = 0; times.forEach((s, k) => { if (Math.abs(s - t) < Math.abs(times[best] - t)) best = k; }); return best; };
-  const failures = data.oracles.filter((o) => o.verdict === "fail" && o.at !== null).map((o) => [o.id, o.at, "failed"])
-    .concat(data.execute.filter((e) => (e.status === "failure" || e.status === "error") && e.end !== null)
-      .map((e) => [e.id, e.end, e.status === "error" ? "error" : "failed"]));  // an entry whose leaf raised: error
-  for (const [id, at, what] of failures) {
+  const failed = (e) => (e.status === "failure" || e.status === "error") && e.end !== null;
+  const failures = data.oracles.filter((o) => o.verdict === "fail" && o.at !== null).map((o) => [o.id, o.at, "failed", o.node])
+    .concat(data.execute.filter(failed)
+      .map((e) => [e.id, e.end, e.status === "error" ? "error" : "failed", e.node]));  // an entry whose leaf raised: error
+  for (const [id, at, what, node] of failures) {
     const b = el("button", id + " " + what + " at " + fmt(at) + " s");
     b.type = "button";
-    b.addEventListener("click", () => show(tickOf(at)));
+    b.addEventListener("click", () => { show(tickOf(at)); if (node >= 0) reveal(node, Math.max(tree.view.s, 1)); });
     $("jumps").appendChild(b);
   }
+  // open on what decided the verdict: the first criterion to fail (the earliest), else a failed entry, else the
+  // first criterion; the whole tree if it fits readable, else that node in the middle at 100 %
+  const earliest = (items, at) => items.reduce((best, item) => best === null || item[at] < best[at] ? item : best, null);
+  const first = earliest(data.oracles.filter((o) => o.verdict === "fail" && o.at !== null && o.node >= 0), "at")
+    || earliest(data.execute.filter((e) => failed(e) && e.node >= 0), "end") || data.oracles.find((o) => o.node >= 0);
+  const focus = first ? first.node : 0;
   layout();
-  // open readable: the whole tree if it fits at 60 % or more, else 100 % from the root (top left)
   const fitScale = Math.min((treeBox.clientWidth - 20) / (bounds[2] - bounds[0]), (treeBox.clientHeight - 20) / (bounds[3] - bounds[1]));
-  if (fitScale >= 0.6) fitTree(); else { tree.view.s = 1; tree.view.x = 10 - bounds[0]; tree.view.y = 10 - bounds[1]; tree.apply(); }
+  if (fitScale >= READABLE && rep[focus] === focus) fitTree(); else if (N) reveal(focus, 1);
   if (scene) sceneView.centre(0, 0, Math.max(0.5, $("scene").clientWidth / 120));  // about 120 m across
   show(last);
   window.btgenReplay = {  // for tests and the curious: read-only views of the page's state
     view: () => ({ s: tree.view.s, x: tree.view.x, y: tree.view.y }),
     sceneView: () => sceneView ? { s: sceneView.view.s, x: sceneView.view.x, y: sceneView.view.y } : null,
     shown: () => shown.length, collapsed: () => Array.from(collapsed.keys()).filter((i) => collapsed[i]),
-    bounds: () => bounds.slice(),
+    bounds: () => bounds.slice(), focus: () => focus,
   };
   document.body.dataset.ready = "1";
 })();

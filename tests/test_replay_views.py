@@ -228,6 +228,82 @@ def test_sumo_trace_records_every_vehicle_where_its_signals_say() -> None:
     assert [last[j + 4] for j in range(0, len(last), 5)] == [1, 1]  # both collided at the end
 
 
+def cut_in_copy(tmp_path: pathlib.Path, options: list[str], processing: str = "") -> pathlib.Path:
+    """The cut-in example in *tmp_path* with more SUMO *options*, and *processing* options in its .sumocfg."""
+    for name in ("road.net.xml", "cut_in.rou.xml"):
+        shutil.copy(ROOT / "examples" / "sumo" / name, tmp_path / name)
+    config = (ROOT / "examples" / "sumo" / "cut_in.sumocfg").read_text(encoding="utf-8")
+    (tmp_path / "cut_in.sumocfg").write_text(config.replace("</configuration>", processing + "</configuration>"))
+    data = json.loads(pathlib.Path(CUT_IN).read_text(encoding="utf-8"))
+    data["system"]["options"] += options
+    (tmp_path / "cut_in.json").write_text(json.dumps(data))
+    return tmp_path / "cut_in.json"
+
+
+@needs_sumo
+def test_a_collision_is_seen_on_its_tick_where_it_happened() -> None:
+    """Issue 35 item 12: with SUMO's default collision action (teleport) the ego was 380 m further on at the
+    tick of the collision, so neither the trace nor the scene showed it. A run leaves colliding vehicles where
+    they met (collision.action warn, docs/sumo.md): on the tick R1 fails both are in contact, and no vehicle
+    moves further in a tick than its speed takes it."""
+    report = run(btgen_pytrees.load(CUT_IN))
+    trace, scene = report.trace, report.trace.scene
+    (r1,) = [o for o in report.oracles if o.id == "R1"]
+    assert (report.verdict, r1.verdict, r1.at) == ("fail", "fail", 4.0)  # the example's verdict, kept
+    k = trace.times.index(r1.at)
+    assert trace.value_at("sim.collisions", k) == 1 and trace.value_at("sim.collisions", k - 1) == 0
+    frame = scene.frames[k]
+    places = {scene.vehicles[int(frame[j])]: frame[j + 1:j + 5] for j in range(0, len(frame), 5)}
+    length = dict(zip(scene.vehicles, scene.sizes))["cutter"][0]
+    assert places["ego"][3] == places["cutter"][3] == 1  # both collided, neither teleported
+    assert abs((places["cutter"][0] - length) - places["ego"][0]) <= 0.5  # the ego's front at the cutter's rear
+    for vid in ("ego", "cutter"):
+        for i in range(1, len(trace.times)):
+            step = abs(trace.value_at(f"{vid}.x", i) - trace.value_at(f"{vid}.x", i - 1))
+            fastest = max(trace.value_at(f"{vid}.speed", i), trace.value_at(f"{vid}.speed", i - 1))
+            assert step <= fastest * 0.1 + 0.5, (vid, i, step)
+    assert not any(frame[j + 4] & 2 for frame in scene.frames for j in range(0, len(frame), 5))
+
+
+def test_a_case_or_its_configuration_chooses_the_collision_action(tmp_path: pathlib.Path) -> None:
+    """The default is SUMO's `--collision.action warn` only where neither the case nor the .sumocfg sets one."""
+    from btgen_pytrees.systems.sumo.scenario import read_scenario
+    from btgen_pytrees.systems.sumo.system import SumoSystem
+
+    def actions(name: str, options: dict[str, str], processing: str = "") -> list[str]:
+        (tmp_path / name).mkdir()
+        config = cut_in_copy(tmp_path / name, [], processing).parent / "cut_in.sumocfg"
+        args = SumoSystem(read_scenario(str(config)), options, 0.1, ["ego"]).arguments()
+        return [args[i + 1] for i, a in enumerate(args) if a == "--collision.action"]
+
+    assert actions("default", {}) == ["warn"]
+    assert actions("case", {"collision.action": "teleport"}) == ["teleport"]
+    assert actions("file", {}, "<processing><collision.action value='remove'/></processing>") == []  # the file's own
+
+
+@needs_sumo
+@needs_chromium
+def test_a_teleport_is_flagged_and_never_drawn_as_motion(tmp_path: pathlib.Path, no_dot: None) -> None:
+    """A case may still ask for SUMO's teleport: the ego then jumps hundreds of metres in one tick. The scene marks
+    the teleport on its tick, and the page draws no line across it: ego.x's curve is two lines, the car dashed."""
+    path, report, _ = write_page(tmp_path, str(cut_in_copy(tmp_path, ["--collision.action", "teleport"])), "teleport")
+    trace, scene = report.trace, report.trace.scene
+    k = trace.times.index(4.0)
+    assert trace.value_at("ego.x", k) - trace.value_at("ego.x", k - 1) > 300  # SUMO moved it, nobody drove it
+    frame = scene.frames[k]
+    flags = {scene.vehicles[int(frame[j])]: frame[j + 4] for j in range(0, len(frame), 5)}
+    assert flags == {"ego": 3, "cutter": 1}  # the ego collided and was teleported, the cutter collided
+    with chromium() as driver:
+        driver.get(path.as_uri())
+        driver.find_element("tag name", "body").send_keys("\ue010")  # End: the teleport's tick
+        assert driver.find_element("css selector", "#scene g.car[data-vehicle='ego']").get_attribute("class") == "car collided teleported"
+        lines = {name: js(driver, f"document.querySelectorAll('#signals tr[data-signal=\"{name}\"] polyline').length")
+                 for name in ("ego.x", "ego.distance", "cutter.x")}  # fmt: skip
+        assert lines == {"ego.x": 2, "ego.distance": 2, "cutter.x": 1}
+        driver.find_element("tag name", "body").send_keys("\ue012")  # ←: the tick before, driven there
+        assert driver.find_element("css selector", "#scene g.car[data-vehicle='ego']").get_attribute("class") == "car ego"
+
+
 class Turning:
     """A system with a scene and no simulator: one car driving a circle (heading follows the tick)."""
 

@@ -209,6 +209,15 @@
 
   const W = 240, H = 36;
   const span = times.length ? Math.max(times[last], 1e-9) : 1;
+  const jumps = new Map();  // vehicle -> the ticks on which the system teleported it: no line is drawn across them
+  if (data.scene) data.scene.frames.forEach((frame, k) => {
+    for (let j = 0; j + 4 < frame.length; j += 5) if (frame[j + 4] & 2) {
+      const id = data.scene.vehicles[frame[j]];
+      if (!jumps.has(id)) jumps.set(id, new Set());
+      jumps.get(id).add(k);
+    }
+  });
+  if (jumps.size) $("teleported-key").hidden = false;
   const signals = Object.keys(data.signals).sort().map((name) => {
     const series = data.signals[name];
     const row = document.createElement("tr");
@@ -226,6 +235,7 @@
       const lo = Math.min(...ys), hi = Math.max(...ys), dy = hi - lo || 1;
       const x = (k) => 2 + (W - 4) * (times[k] / span), y = (v) => H - 3 - (H - 6) * ((Number(v) - lo) / dy);
       const lines = [];  // one line per stretch with a value: where the signal ended ([tick], no value) its line stops
+      const jumped = jumps.get(name.slice(0, name.lastIndexOf("."))) || new Set();  // and where its vehicle teleported
       let pts = [], prev = null;
       series.forEach((item) => {
         const k = item[0];
@@ -235,6 +245,7 @@
           return;
         }
         if (!isNumber(item)) return;
+        if (prev !== null && jumped.has(k)) { pts.push(x(k) + "," + y(prev)); lines.push(pts); pts = []; prev = null; }
         if (prev !== null) pts.push(x(k) + "," + y(prev));
         pts.push(x(k) + "," + y(item[1]));
         prev = item[1];
@@ -294,6 +305,7 @@
     const prefix = hovered + ".";
     for (const s of signals) if (s.name.startsWith(prefix)) lines.push(s.name.slice(prefix.length) + " = " + fmt(valueAt(s.series, tick)));
     if (lines.length === 1) lines.push("(no signals: not tracked, or left out by --signals)");
+    if (jumps.has(hovered) && jumps.get(hovered).has(tick)) lines.push("teleported here on this tick (not driven)");
     $("scene-tip").textContent = lines.join("\n");
   }
   function showScene(k) {
@@ -302,7 +314,7 @@
     egoAt = null;
     for (let j = 0; j + 4 < frame.length; j += 5) {
       const v = frame[j], id = scene.vehicles[v], [len, wid] = scene.sizes[v];
-      const x = frame[j + 1], y = -frame[j + 2], a = frame[j + 3], hit = frame[j + 4];
+      const x = frame[j + 1], y = -frame[j + 2], a = frame[j + 3], hit = frame[j + 4] & 1, jump = frame[j + 4] & 2;
       let car = cars.get(id);
       if (!car) {
         const g = svgEl("g", { class: "car" });
@@ -313,7 +325,7 @@
         g.appendChild(body); $("scene-cars").appendChild(g); $("scene-cars").appendChild(text);
         car = { g, body, text }; cars.set(id, car);
       }
-      const kind = hit ? "collided" : id === scene.map.ego ? "ego" : "other";
+      const kind = (hit ? "collided" : id === scene.map.ego ? "ego" : "other") + (jump ? " teleported" : "");
       if (car.kind !== kind) { car.g.setAttribute("class", "car " + kind); car.kind = kind; }
       car.g.setAttribute("transform", "translate(" + x + "," + y + ") rotate(" + (a - 90) + ")");
       const rad = (a - 90) * Math.PI / 180;

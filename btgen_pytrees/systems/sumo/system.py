@@ -62,7 +62,7 @@ from .scenario import Scenario
 if TYPE_CHECKING:  # pragma: no cover
     from ...contracts.environment import Environment
 
-__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "libsumo_module", "INSTALL_HINT", "tick_problem",
+__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "DEFAULTS", "libsumo_module", "INSTALL_HINT", "tick_problem",
            "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations",
            "release_simulations"]
 
@@ -70,6 +70,11 @@ INSTALL_HINT = "pip install -e '.[sumo]'"
 ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", "ttc", "present", "collided")
 """The signals of each vehicle, ``<vehicle>.<attribute>``."""
 SIM_SIGNALS = ("sim.collisions", "sim.vehicles")
+DEFAULTS = {"collision.action": "warn"}
+"""SUMO options a run sets where neither the case's ``options`` nor its ``.sumocfg`` do. SUMO's own
+``collision.action`` is ``teleport``: in the step of the collision the collider is moved hundreds of
+metres ahead (or to its next edge), so no signal, trace or scene ever shows the two vehicles where they
+met. ``warn`` leaves them where they are, in contact, on the tick the collision counts (docs/sumo.md)."""
 LOOKAHEAD = 1000.0
 """Metres ahead in which a vehicle's leader counts (``V.gap`` and ``V.ttc`` are inf beyond; SUMO itself
 reports a leader further ahead on the same lane)."""
@@ -277,6 +282,7 @@ class SumoSystem:
         self.time = 0.0  # SUMO's time of the last step (s)
         self.collisions = 0
         self.collided: set[str] = set()
+        self.teleported: frozenset[str] = frozenset()  # vehicles SUMO moved (not drove) in the last step: scene only
         self.seen: set[str] = set()
         self.sizes: dict[str, tuple[float, float]] = {}  # every departed vehicle: (length, width), for the scene
         self.min_gap: dict[str, float] = {}
@@ -303,8 +309,12 @@ class SumoSystem:
         args = ["sumo", "-c", self.scenario.config, "--step-length", repr(self.tick_length), "--begin", "0",
                 "--no-step-log", "true", "--no-warnings", "true", "--duration-log.disable", "true",
                 "--xml-validation", "never", "--xml-validation.net", "never", "--xml-validation.routes", "never"]  # fmt: skip
+        own = self.scenario.options
         for name, value in self.options.items():
             args += ["--" + name, value]
+        for name, value in DEFAULTS.items():
+            if name not in self.options and name not in own:
+                args += ["--" + name, value]
         return args
 
     def start(self, env: "Environment") -> None:
@@ -428,6 +438,8 @@ class SumoSystem:
             self.sizes[vid] = (vehicle.getLength(vid), vehicle.getWidth(vid))
         self.results = vehicle.getAllSubscriptionResults() if self.sizes else {}
         self.vehicle_count = vehicle.getIDCount()
+        if self._scene:
+            self.teleported = frozenset(simulation.getStartingTeleportIDList() + simulation.getEndingTeleportIDList())
         collisions = simulation.getCollisions()
         if collisions or self._contacts:
             contacts = frozenset((c.collider, c.victim) for c in collisions)
@@ -531,19 +543,21 @@ class SumoSystem:
         junctions = [list(points) for kind, _, points in self.scenario.shapes if kind == "junction"]
         return {"lanes": lanes, "areas": junctions, "ego": "ego" if "ego" in self._tracked else ""}
 
-    def scene_vehicles(self) -> Iterable[tuple[str, float, float, float, float, float, bool]]:
-        """Every vehicle in the network now: ``(id, x, y, heading, length, width, collided)``.
+    def scene_vehicles(self) -> Iterable[tuple[str, float, float, float, float, float, bool, bool]]:
+        """Every vehicle in the network now: ``(id, x, y, heading, length, width, collided, teleported)``.
 
         ``x, y``: the front bumper's middle, metres; ``heading``: degrees clockwise from north
-        (SUMO's angle); ``collided``: has been in a collision. Sorted by id.
+        (SUMO's angle); ``collided``: has been in a collision; ``teleported``: SUMO teleported it in
+        this step (a jam's ``time-to-teleport``, or ``collision.action teleport``): it got here without
+        driving. Sorted by id.
         """
-        results, sizes, collided = self.results, self.sizes, self.collided
+        results, sizes, collided, teleported = self.results, self.sizes, self.collided, self.teleported
         for vid in sorted(results):
             r = results[vid]
             if _POSITION in r and _ANGLE in r:
                 x, y = r[_POSITION]
                 length, width = sizes.get(vid, (5.0, 1.8))
-                yield vid, x, y, r[_ANGLE], length, width, vid in collided
+                yield vid, x, y, r[_ANGLE], length, width, vid in collided, vid in teleported
 
     # -- commands of the action leaves -------------------------------------------
     def present(self, vid: str) -> bool:

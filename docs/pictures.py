@@ -1,8 +1,35 @@
-"""Make every picture of docs/views.md (and the README's replay screenshot) from the examples.
+"""Make every picture and sample output of the README and docs/, and say which ones are stale.
 
-    python docs/pictures.py            # all of them, into docs/images/
-    python docs/pictures.py plots      # only the run pictures (needs matplotlib)
-    python docs/pictures.py replay     # only the replay screenshots (needs selenium, chromium, chromium-driver)
+    python docs/pictures.py              # everything: pictures into docs/images/, sample outputs into the docs
+    python docs/pictures.py plots        # only the run pictures, verdict maps and tree pictures (matplotlib, Graphviz)
+    python docs/pictures.py replay       # only the replay screenshots (selenium, chromium, chromium-driver)
+    python docs/pictures.py samples      # only the sample outputs written in the docs
+    python docs/pictures.py --check      # change nothing: list what is stale (exit 1 if anything is)
+
+``tests/test_pictures.py`` runs the check, so a picture or a sample that no longer shows what the
+project makes fails the suite.
+
+**Sample outputs.** A code block in README.md or docs/*.md right after a comment line
+
+* ``<!-- sample: ARGS -->`` is the output (stdout, then stderr) of ``python -m btgen_pytrees ARGS``;
+* ``<!-- sample -->`` is a session: each line ``$ python -m btgen_pytrees ARGS`` followed by its output;
+* ``<!-- sample file: PATH -->`` is the file PATH of this repository, as it is.
+
+Commands run in this process from the repository's root. Text is compared exactly.
+
+**Pictures** (:data:`PICTURES`, recorded in ``docs/images/pictures.json``). Rendered pictures are
+not byte-stable across machines: Chromium's screenshots differ with its version and fonts,
+Graphviz's SVG with its version, matplotlib's output with its version. So what is compared is what
+can be compared exactly:
+
+* what the picture is drawn from, made again and compared byte for byte: the run's JSON report and
+  its signals as CSV (run pictures), the sweep's JSON report (verdict maps), the ``dot`` source
+  (tree pictures), the replay page's HTML and the steps taken in it (screenshots);
+* matplotlib's own drawing, where the matplotlib that made the picture is the one installed: the
+  figure as SVG, made again and compared byte for byte (the project's ``--plot`` SVG is
+  deterministic for one matplotlib);
+* the picture file itself against the record written with it, so that a picture is never replaced
+  or edited by hand without the record.
 
 The 500-entry case of the pictures and of the tests is :func:`timeline_case`:
 a chain of 100 ramps of ``level``, each with four side branches (a wait,
@@ -11,13 +38,27 @@ three holds), ``R1`` (a record) and ``F1`` (a final) that pass.
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import importlib.util
+import io
+import json
 import os
 import pathlib
+import re
+import shlex
 import sys
-from typing import Any
+import tempfile
+from dataclasses import dataclass
+from typing import Any, Callable, Iterator
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 IMAGES = ROOT / "docs" / "images"
+RECORD = IMAGES / "pictures.json"
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+SAMPLE = re.compile(r"^<!-- sample(?: file: (?P<file>\S+)|: (?P<args>.+?))? -->\n(?P<fence>```\w*\n)(?P<body>.*?)^```",
+                    re.S | re.M)  # fmt: skip
+PROMPT = "$ python -m btgen_pytrees "
 
 
 def timeline_case(n: int = 500) -> dict[str, Any]:
@@ -47,43 +88,292 @@ def timeline_case(n: int = 500) -> dict[str, Any]:
 
 def fig1_fast() -> dict[str, Any]:
     """fig1, but B2 ramps the speed to 40: R1 (speed <= 30) fails at 1.6 s (docs/views.md)."""
-    import json
-
     data = json.loads((ROOT / "examples" / "fig1.json").read_text(encoding="utf-8"))
     data["execute"][2]["params"]["to"] = 40
     return data  # type: ignore[no-any-return]
 
 
-def plots() -> None:
-    import btgen_pytrees
-    from btgen_pytrees.run import run
-    from btgen_pytrees.run.plot import plot_run
-
-    for name, source, picture in (
-        ("fig1", ROOT / "examples" / "fig1.json", "fig1-run.svg"),
-        ("fig1 ramping to 40", fig1_fast(), "fig1-fast-run.svg"),
-        ("SUMO cut-in", ROOT / "examples" / "sumo" / "cut_in.json", "cut_in-run.svg"),
-        ("500 entries", None, "timeline_500-run.png"),
-    ):
-        case = btgen_pytrees.load(source if isinstance(source, dict) else str(source) if source else timeline_case())
-        plot_run(run(case), case, str(IMAGES / picture))
-        print(f"{name}: docs/images/{picture}")
+# -- running the command line in this process -------------------------------------------------------------
 
 
-def replays() -> None:
-    sys.path.insert(0, str(ROOT / "tests"))
-    from browser import make_screenshot  # tests/browser.py: Debian's chromium through selenium
+@contextlib.contextmanager
+def inside(directory: pathlib.Path) -> Iterator[None]:
+    before = os.getcwd()
+    os.chdir(directory)
+    try:
+        yield
+    finally:
+        os.chdir(before)
 
-    make_screenshot(str(ROOT / "examples" / "fig1_failing.json"), str(IMAGES / "fig1-replay.png"), tick=12)
-    make_screenshot(str(ROOT / "examples" / "sumo" / "cut_in.json"), str(IMAGES / "cut_in-replay.png"), tick=38)
-    make_screenshot(timeline_case(), str(IMAGES / "timeline_500-replay.png"), tick=40, search="E99_3")
-    print("docs/images/fig1-replay.png, cut_in-replay.png, timeline_500-replay.png")
+
+def cli(args: list[str], cwd: pathlib.Path = ROOT) -> str:
+    """What ``python -m btgen_pytrees ARGS`` prints, stdout then stderr, run in this process from *cwd*."""
+    from btgen_pytrees.cli import main
+
+    out, err = (io.TextIOWrapper(io.BytesIO(), encoding="utf-8", newline="\n") for _ in range(2))  # as a UTF-8 terminal
+    with inside(cwd), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        main(args)
+    out.flush()
+    err.flush()
+    return (out.buffer.getvalue() + err.buffer.getvalue()).decode("utf-8")  # type: ignore[attr-defined]
+
+
+# -- sample outputs ---------------------------------------------------------------------------------------
+
+
+def sample_text(match: re.Match[str]) -> str:
+    """What the block after a ``<!-- sample ... -->`` comment must hold."""
+    if match["file"]:
+        return (ROOT / match["file"]).read_text(encoding="utf-8")
+    if match["args"]:
+        return cli(shlex.split(match["args"]))
+    text = ""
+    for line in match["body"].splitlines():
+        if line.startswith(PROMPT):
+            text += line + "\n" + cli(shlex.split(line[len(PROMPT):]))
+    return text
+
+
+def sumo_missing(match: re.Match[str]) -> bool:
+    """Whether the sample runs a SUMO case where libsumo is not installed (it cannot be made here)."""
+    return "sumo" in (match["args"] or match["body"] if not match["file"] else "") and importlib.util.find_spec("libsumo") is None
+
+
+def samples(write: bool = False, skip: Callable[[str], None] | None = None) -> list[str]:
+    """Every sample whose block is not what its command prints now (``DOC: args``); with *write*, fix them.
+
+    A sample of a SUMO case where libsumo is missing is passed to *skip* (``DOC: args``), or reported without it.
+    """
+    stale = []
+    for doc in DOCS:
+        text = doc.read_text(encoding="utf-8")
+
+        def made_again(m: re.Match[str]) -> str:
+            if sumo_missing(m):
+                (skip or stale.append)(f"{doc.name}: {m['args'] or 'session'} (needs libsumo)")
+                return m.group(0)
+            return m.group(0)[:m.start("body") - m.start()] + sample_text(m) + "```"
+
+        made = SAMPLE.sub(made_again, text)
+        if made != text:
+            olds, news = SAMPLE.finditer(text), SAMPLE.finditer(made)
+            stale += [f"{doc.name}: {old['file'] or old['args'] or 'session'}" for old, new in zip(olds, news)
+                      if old["body"] != new["body"]]  # fmt: skip
+            if write:
+                doc.write_text(made, encoding="utf-8")
+    return stale
+
+
+# -- pictures ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Picture:
+    """One picture of docs/images/: made from *run* (a key of :data:`RUNS`) as *kind* shows it.
+
+    kind: ``tree`` (``--format svg``, Graphviz), ``plot`` (``run --plot``, matplotlib), ``map`` (a sweep's
+    ``run --plot``), ``replay`` (a screenshot of ``run --replay`` at *tick*, after finding *search*).
+    """
+
+    file: str
+    run: str
+    kind: str
+    tick: int = 0
+    search: str = ""
+
+
+RUNS: dict[str, str | Callable[[], dict[str, Any]]] = {
+    "fig1": "examples/fig1.json",
+    "fig1_fast": fig1_fast,
+    "fig1_failing": "examples/fig1_failing.json",
+    "cut_in": "examples/sumo/cut_in.json",
+    "timeline_500": timeline_case,
+    "fig1_sweep": "examples/fig1_sweep.json",
+    "cut_in_sweep": "examples/sumo/cut_in_sweep.json",
+}
+PICTURES = (
+    Picture("fig1.svg", "fig1", "tree"),
+    Picture("fig1-run.svg", "fig1", "plot"),
+    Picture("fig1-fast-run.svg", "fig1_fast", "plot"),
+    Picture("cut_in-run.svg", "cut_in", "plot"),
+    Picture("timeline_500-run.png", "timeline_500", "plot"),
+    Picture("fig1_sweep_map.svg", "fig1_sweep", "map"),
+    Picture("cut_in_sweep_map.svg", "cut_in_sweep", "map"),
+    Picture("fig1-replay.png", "fig1_failing", "replay", tick=12),
+    Picture("cut_in-replay.png", "cut_in", "replay", tick=38),
+    Picture("timeline_500-replay.png", "timeline_500", "replay", tick=40, search="E99_3"),
+)
+WINDOW = (1400, 820)
+"""The browser window of the screenshots."""
+
+
+def case_path(run: str, scratch: pathlib.Path) -> tuple[str, pathlib.Path]:
+    """*run*'s case as a path and the directory to run it from: a file of the repository from its root,
+    a generated case written to *scratch* and run from there (so that reports name it alike everywhere)."""
+    source = RUNS[run]
+    if isinstance(source, str):
+        return source, ROOT
+    (scratch / f"{run}.json").write_text(json.dumps(source()), encoding="utf-8")
+    return f"{run}.json", scratch
+
+
+def made_by(picture: Picture) -> str:
+    source = RUNS[picture.run]
+    case = source if isinstance(source, str) else f"{picture.run}.json ({source.__name__}() in docs/pictures.py)"
+    out = f"docs/images/{picture.file}"
+    if picture.kind == "tree":
+        return f"python -m btgen_pytrees {case} --format svg -o {out}"
+    if picture.kind in ("plot", "map"):
+        return f"python -m btgen_pytrees run {case} --plot {out}"
+    found = f", found {picture.search!r}" if picture.search else ""
+    return f"python -m btgen_pytrees run {case} --replay PAGE; Chromium at {WINDOW[0]}x{WINDOW[1]}, tick {picture.tick + 1}{found}"
+
+
+def matplotlib_version() -> str | None:
+    if importlib.util.find_spec("matplotlib") is None:
+        return None
+    import matplotlib
+
+    return str(matplotlib.__version__)
+
+
+def drawn_from(run: str, scratch: pathlib.Path) -> dict[str, bytes]:
+    """Everything *run*'s pictures are drawn from, made now: ``tree.dot``, ``report.json``, ``signals.csv``,
+    ``replay.html``, and the figure as ``figure.svg`` when matplotlib is installed."""
+    kinds = {p.kind for p in PICTURES if p.run == run}
+    case, cwd = case_path(run, scratch)
+    out = scratch / run
+    out.mkdir(exist_ok=True)
+    files: dict[str, pathlib.Path] = {}
+    if "tree" in kinds:
+        (out / "tree.dot").write_text(cli([case, "--format", "dot"], cwd), encoding="utf-8")
+        files["tree.dot"] = out / "tree.dot"
+    if kinds - {"tree"}:
+        args = ["run", case, "--json", str(out / "report.json")]
+        files["report.json"] = out / "report.json"
+        if "map" not in kinds:
+            args += ["--signals-out", str(out / "signals.csv")]
+            files["signals.csv"] = out / "signals.csv"
+        if "replay" in kinds:
+            args += ["--replay", str(out / "replay.html")]
+            files["replay.html"] = out / "replay.html"
+        if kinds & {"plot", "map"} and matplotlib_version():
+            args += ["--plot", str(out / "figure.svg")]
+            files["figure.svg"] = out / "figure.svg"
+        cli(args, cwd)
+    return {name: path.read_bytes() for name, path in files.items()}
+
+
+def digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def picture_record(picture: Picture, made: dict[str, bytes]) -> dict[str, Any]:
+    """What the record keeps of *picture*, drawn from *made* (the file itself excluded)."""
+    names = {"tree": ["tree.dot"], "plot": ["report.json", "signals.csv"], "map": ["report.json"],
+             "replay": ["replay.html"]}[picture.kind]  # fmt: skip
+    record: dict[str, Any] = {"made_by": made_by(picture), "drawn_from": {n: digest(made[n]) for n in names}}
+    if picture.kind in ("plot", "map"):
+        record["figure.svg"] = digest(made["figure.svg"])
+    return record
+
+
+def needs(picture: Picture) -> list[str]:
+    """What is missing here to make *picture* again: ``libsumo`` for the SUMO runs, ``matplotlib``."""
+    missing = []
+    if "sumo" in str(RUNS[picture.run]) and importlib.util.find_spec("libsumo") is None:
+        missing.append("libsumo")
+    if picture.kind != "tree" and not matplotlib_version():
+        missing.append("matplotlib")
+    return missing
+
+
+def read_record() -> dict[str, Any]:
+    return json.loads(RECORD.read_text(encoding="utf-8")) if RECORD.exists() else {"pictures": {}}  # type: ignore[no-any-return]
+
+
+def stale_pictures(skip: Callable[[Picture, list[str]], None] | None = None) -> list[str]:
+    """Every picture that is not what the project draws now, with why (see the module's docstring).
+
+    *skip(picture, missing)* is called for a picture that cannot be checked here (a missing component);
+    without it such a picture is reported stale.
+    """
+    record = read_record()
+    stale = []
+    with tempfile.TemporaryDirectory(prefix="btgen-pictures-") as tmp:
+        made: dict[str, dict[str, bytes]] = {}
+        for picture in PICTURES:
+            kept = record["pictures"].get(picture.file)
+            path = IMAGES / picture.file
+            if kept is None or not path.exists():
+                stale.append(f"{picture.file}: not made by docs/pictures.py (no record, or no file)")
+                continue
+            if kept["sha256"] != digest(path.read_bytes()):
+                stale.append(f"{picture.file}: the file is not the one its record was written with")
+                continue
+            missing = needs(picture)
+            if missing:
+                if skip is None:
+                    stale.append(f"{picture.file}: cannot be checked without {', '.join(missing)}")
+                else:
+                    skip(picture, missing)
+                continue
+            if picture.run not in made:
+                made[picture.run] = drawn_from(picture.run, pathlib.Path(tmp))
+            now = picture_record(picture, made[picture.run])
+            for name, value in now["drawn_from"].items():
+                if kept["drawn_from"].get(name) != value:
+                    stale.append(f"{picture.file}: its {name} is not what the project makes now")
+            if "figure.svg" in now and kept.get("matplotlib") == matplotlib_version() and kept["figure.svg"] != now["figure.svg"]:
+                stale.append(f"{picture.file}: matplotlib {kept['matplotlib']} draws it differently now")
+            if kept["made_by"] != now["made_by"]:
+                stale.append(f"{picture.file}: made by {kept['made_by']!r}, not {now['made_by']!r}")
+    return stale
+
+
+def make_pictures(kinds: set[str]) -> None:
+    """Make the pictures of *kinds* and write their record."""
+    record = read_record()
+    with tempfile.TemporaryDirectory(prefix="btgen-pictures-") as tmp:
+        made: dict[str, dict[str, bytes]] = {}
+        for picture in PICTURES:
+            if picture.kind not in kinds:
+                continue
+            if picture.run not in made:
+                made[picture.run] = drawn_from(picture.run, pathlib.Path(tmp))
+            target = IMAGES / picture.file
+            if picture.kind == "replay":
+                sys.path.insert(0, str(ROOT / "tests"))
+                from browser import screenshot  # tests/browser.py: Debian's chromium through selenium
+
+                page = pathlib.Path(tmp) / picture.run / "replay.html"
+                screenshot(page, str(target), tick=picture.tick, search=picture.search, window=WINDOW)
+            else:
+                case, cwd = case_path(picture.run, pathlib.Path(tmp))
+                args = [case, "--format", "svg", "-o", str(target)] if picture.kind == "tree" else ["run", case, "--plot", str(target)]
+                cli(args, cwd)
+            entry = picture_record(picture, made[picture.run])
+            if "figure.svg" in entry:
+                entry["matplotlib"] = matplotlib_version()
+            entry["sha256"] = digest(target.read_bytes())
+            record["pictures"][picture.file] = entry
+            print(f"docs/images/{picture.file}: {entry['made_by']}")
+    record["pictures"] = dict(sorted(record["pictures"].items()))
+    RECORD.write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
 
 
 if __name__ == "__main__":
     os.environ.setdefault("PYTHONHASHSEED", "0")
-    which = sys.argv[1:] or ["plots", "replay"]
+    sys.path.insert(0, str(ROOT))
+    if "--check" in sys.argv:
+        problems = samples() + stale_pictures()
+        print("\n".join(problems) or "every picture and sample is what the project makes now")
+        sys.exit(1 if problems else 0)
+    which = sys.argv[1:] or ["plots", "replay", "samples"]
     if "plots" in which:
-        plots()
+        make_pictures({"tree", "plot", "map"})
     if "replay" in which:
-        replays()
+        make_pictures({"replay"})
+    if "samples" in which:
+        for name in samples(write=True):
+            print(f"rewritten: {name}")

@@ -5,7 +5,7 @@ chromium-driver``; ``.ci/run`` installs them); selenium drives them. Both paths
 are given explicitly, so selenium-manager never tries to download a browser.
 
 The README's and docs/views.md's screenshots of the page are made by
-``python docs/pictures.py replay`` through :func:`make_screenshot`.
+``python docs/pictures.py replay`` through :func:`screenshot`.
 """
 
 from __future__ import annotations
@@ -53,21 +53,14 @@ def chromium() -> Iterator[Any]:
         shutil.rmtree(profile, ignore_errors=True)
 
 
-def make_screenshot(case_path: Any, png: str, tick: int = 12, search: str = "") -> None:
-    """Run *case_path* (a file or a case dict), write its replay page, open it, step to *tick* with the
-    keyboard (and find *search* in the tree) and save a screenshot."""
+def screenshot(page: Any, png: str, tick: int = 12, search: str = "", window: tuple[int, int] = (1400, 820)) -> None:
+    """Open the replay page *page* (a path) in a *window*-sized Chromium, step to *tick* (0: the first) with
+    the keyboard, find *search* in the tree, and save a screenshot as *png*."""
     import pathlib
 
-    import btgen_pytrees
-    from btgen_pytrees.run import run
-    from btgen_pytrees.run.replay import replay_html
-
-    case = btgen_pytrees.load(case_path)
-    page = pathlib.Path(tempfile.mkdtemp(prefix="btgen-replay-")) / "replay.html"
-    page.write_bytes(replay_html(run(case), case, btgen_pytrees.generate(case)))
     with chromium() as driver:
-        driver.set_window_size(1400, 820)
-        driver.get(page.as_uri())
+        driver.set_window_size(*window)
+        driver.get(pathlib.Path(page).resolve().as_uri())
         body = driver.find_element("tag name", "body")
         body.send_keys("\ue011")  # Home: tick 0
         for _ in range(tick):
@@ -75,4 +68,3 @@ def make_screenshot(case_path: Any, png: str, tick: int = 12, search: str = "") 
         if search:
             driver.find_element("id", "search").send_keys(search + "\ue007")  # Enter
         driver.save_screenshot(png)
-    shutil.rmtree(page.parent, ignore_errors=True)

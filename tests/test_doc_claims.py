@@ -90,3 +90,14 @@ def test_readme_replay_picture_says_what_it_shows() -> None:
     assert alt and "tick 13 of 17" in alt.group(1) and "tick 12" not in alt.group(1)
     views = re.search(r"!\[([^\]]*)\]\(images/fig1-replay\.png\)", VIEWS)
     assert views and "tick 13 of 17" in views.group(1)
+
+
+def test_readme_verdict_map_is_described_by_margins() -> None:
+    """The README described the cut-in's map as red/green verdict cells: since margins, cells are coloured by
+    the oracle's margin (docs/sweeps.md). Its picture is made and checked by docs/pictures.py."""
+    start = README.index("A sweep - one case, many parameter values")
+    paragraph = README[start:README.index("](docs/images/cut_in_sweep_map.svg)", start)]
+    assert "coloured by its margin" in paragraph and "margin on a red-yellow-green scale" in paragraph
+    record = (ROOT / "docs" / "images" / "pictures.json").read_text(encoding="utf-8")
+    assert '"cut_in_sweep_map.svg"' in record
+    assert "margin (robustness" in (ROOT / "docs" / "images" / "cut_in_sweep_map.svg").read_text(encoding="utf-8")

@@ -13,8 +13,8 @@ from typing import Any, Mapping
 
 from .expressions import Expression
 
-__all__ = ["Entry", "Criterion", "TestCase", "SystemSpec", "label", "DEFAULT_TICK",
-           "DEFAULT_TIMEOUT", "DEFAULT_JOIN", "tick_count"]
+__all__ = ["Entry", "Control", "StopCondition", "Criterion", "TestCase", "SystemSpec", "label", "DEFAULT_TICK",
+           "DEFAULT_TIMEOUT", "DEFAULT_JOIN", "tick_count", "EDGES", "STATES", "state_signal"]
 
 EMPTY: Mapping[str, Any] = MappingProxyType({})
 
@@ -48,6 +48,93 @@ def label(id: str, name: str) -> str:
     return id if not name or name == id else f"{id} ({name})"
 
 
+EDGES = ("none", "rising", "falling", "any")
+"""The values of ``edge``: what a ``when`` must do to fire (``none``: hold)."""
+
+STATES = ("started", "running", "ended", "succeeded", "failed", "stopped")
+"""An entry's states that a ``when`` (or a ``stop``) may read as the boolean signal ``<id>.<state>``."""
+
+
+def state_signal(entry_id: str, state: str) -> str:
+    """The signal name of an entry's state, ``<id>.<state>`` (see docs/format.md#control-flow).
+
+    >>> state_signal("A1", "ended")
+    'A1.ended'
+    """
+    return f"{entry_id}.{state}"
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class Control:
+    """An entry's control-flow keys (docs/format.md#control-flow); ``None`` on an entry without any.
+
+    Attributes:
+        when: the start condition, parsed (``None``: start as soon as the predecessors are done)
+        edge: ``none``, ``rising``, ``falling`` or ``any`` (see :data:`EDGES`)
+        delay: seconds from the trigger to the start
+        timeout: seconds an attempt may run before it fails (``None``: no limit)
+        attempts: tries in all (a failed attempt starts again, up to this many)
+        repeat: runs in a row (each waits for ``when``/``delay`` again)
+        stops: ids of the entries stopped when this one starts
+        race: the race group's name (``None``: no race)
+        watched: another entry's ``when`` or a ``stop`` reads this entry's states (``<id>.<state>``)
+    """
+
+    when: Expression | None = None
+    edge: str = "none"
+    delay: float = 0.0
+    timeout: float | None = None
+    attempts: int = 1
+    repeat: int = 1
+    stops: tuple[str, ...] = ()
+    race: str | None = None
+    watched: bool = False
+
+    @property
+    def summary(self) -> str:
+        """The keys in a few words, for views: ``when gap < 20 (rising), delay 1 s, 3 attempts``."""
+        parts = []
+        if self.when is not None:
+            parts.append(f"when {self.when.source}" + (f" ({self.edge})" if self.edge != "none" else ""))
+        if self.delay:
+            parts.append(f"delay {self.delay:g} s")
+        if self.timeout is not None:
+            parts.append(f"timeout {self.timeout:g} s")
+        if self.attempts > 1:
+            parts.append(f"{self.attempts} attempts")
+        if self.repeat > 1:
+            parts.append(f"repeat {self.repeat}")
+        if self.stops:
+            parts.append("stops " + ", ".join(self.stops))
+        if self.race is not None:
+            parts.append(f"race {self.race}")
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class StopCondition:
+    """One item of the case's top-level ``stop``: the run ends when ``when`` fires (after ``delay``).
+
+    Attributes:
+        when, edge, delay: as for :class:`Control`
+        index: position in the ``stop`` array
+    """
+
+    when: Expression
+    edge: str = "none"
+    delay: float = 0.0
+    index: int = 0
+
+    @property
+    def path(self) -> tuple[str | int, ...]:
+        return ("stop", self.index)
+
+    @property
+    def label(self) -> str:
+        """How reports name it: ``stop[0]``."""
+        return f"stop[{self.index}]"
+
+
 @dataclass(frozen=True, eq=False, slots=True)
 class Entry:
     """One execute entry: a behaviour or a constraint on the timeline.
@@ -62,6 +149,7 @@ class Entry:
         name: display label (the id when none was given)
         index: position in the file's ``execute`` list
         expressions: parameters that the action declares as expressions, parsed
+        control: the control-flow keys (:class:`Control`), ``None`` when it has none
     """
 
     id: str
@@ -73,6 +161,7 @@ class Entry:
     name: str
     index: int
     expressions: Mapping[str, Expression] = field(default_factory=lambda: EMPTY)
+    control: Control | None = None
 
     @property
     def path(self) -> tuple[str | int, ...]:
@@ -154,6 +243,7 @@ class TestCase:
         require_complete: a run that passes with entries unfinished fails instead
         warnings: problems (:class:`~btgen_pytrees.errors.Problem`) that do not stop a run,
             e.g. two entries that may write one signal at once (:mod:`btgen_pytrees.load.warnings`)
+        stop: the top-level ``stop`` conditions (:class:`StopCondition`; empty: none)
     """
 
     __test__ = False  # not a pytest class, despite the name
@@ -172,6 +262,12 @@ class TestCase:
     system: SystemSpec = SystemSpec()
     require_complete: bool = False
     warnings: tuple[Any, ...] = ()
+    stop: tuple[StopCondition, ...] = ()
+
+    @property
+    def controlled(self) -> bool:
+        """Whether an entry has control-flow keys or the case has a ``stop`` (the tree then has their nodes)."""
+        return bool(self.stop) or any(e.control is not None for e in self.entries)
 
     @property
     def ticks(self) -> int:

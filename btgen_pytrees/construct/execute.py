@@ -43,7 +43,8 @@ import py_trees
 
 from ..leaves import Environment, Registry
 from ..leaves.composites import Parallel, Sequence
-from ..leaves.wiring import Completion, RunStart, Trigger, WakingParallel
+from ..leaves.control import controlled
+from ..leaves.wiring import Completion, Cuttable, CutTrigger, RunStart, Trigger, WakingParallel
 from ..model import Entry
 from ..timeline import topological_positions
 
@@ -131,6 +132,22 @@ class _Walk:
         self.depth = depth
         self.max_depth = max_depth
         self.graph = graph
+        # the control-flow keys (docs/algorithms.md#control-flow): each controlled entry is built with its nodes
+        # (up to five levels above its leaf); with stops or races each branch is Cuttable (one level more)
+        self.build_entry = registry.build
+        self.cuttable = False
+        self.extra = 0
+        self.rivals: dict[str, tuple[str, ...]] = {}
+        control = [e for e in self.entry_of.values() if e.control is not None]
+        if control:
+            races: dict[str, list[str]] = {}
+            for e in control:
+                if e.control.race is not None:  # type: ignore[union-attr]
+                    races.setdefault(e.control.race, []).append(e.id)  # type: ignore[union-attr]
+            self.rivals = {m: tuple(x for x in members if x != m) for members in races.values() for m in members}
+            self.cuttable = bool(races) or any(e.control.stops for e in control)  # type: ignore[union-attr]
+            self.build_entry = self.controlled_entry
+            self.extra = 5 + self.cuttable
         joins = [(v, p) for v, p in self.pred.items() if len(p) > 1]
         if joins or not consume or any(len(s) > 1 for s in self.succ.values()):
             # the order (and the cycle check) before anything is built; without joins and forks
@@ -149,8 +166,19 @@ class _Walk:
         return topological_positions(self.graph)
 
     def leaf(self, v: str, wrap: bool) -> py_trees.behaviour.Behaviour:
-        node = self.registry.build(self.entry_of[v], self.env)
+        node = self.build_entry(self.entry_of[v], self.env)
         return Completion(node, self.env, marks=v) if wrap else node
+
+    def controlled_entry(self, entry: Entry, env: Environment) -> py_trees.behaviour.Behaviour:
+        """The entry's leaf, inside the nodes of its control keys when it has some."""
+        node = self.registry.build(entry, env)
+        if entry.control is None:
+            return node
+        return controlled(node, entry, env, self.rivals.get(entry.id, ()))
+
+    def branch(self, seq: Sequence) -> py_trees.behaviour.Behaviour:
+        """A branch's Sequence as its Parallel holds it: inside a :class:`Cuttable` when entries can be stopped."""
+        return Cuttable(seq, self.env) if self.cuttable else seq
 
     def chain(self, seq: Sequence, first: str, level: int, *, fork_of: str | None = None) -> None:
         """Row walk from *first*, filling *seq* (which sits at *level*).
@@ -166,7 +194,7 @@ class _Walk:
         else:
             stack.append((seq, first, level))
         succ, pred, nodes, entry_of, consume = self.succ, self.pred, self.nodes, self.entry_of, self.consume
-        build, env = self.registry.build, self.env
+        build, env = self.build_entry, self.env
         while stack:
             seq, v, level = stack.pop()
             out = _ChainWriter(seq, level)
@@ -185,7 +213,7 @@ class _Walk:
                 singles = self.singles(v) if successors else []
                 # fork Parallel, branch Sequence, part Sequence (a branch longer than CHUNK),
                 # Completion, leaf: up to five more levels
-                hoist = len(singles) > 1 and out.level + 5 > self.max_depth
+                hoist = len(singles) > 1 and out.level + 5 + self.extra > self.max_depth
                 # a successor with other predecessors is a join, whose trigger waits for v
                 out.add(self.leaf(v, wrap=hoist or len(singles) != len(successors)))
                 if consume:  # v's leaf and row are done: drop them from the graph (a hoisted fork reads its row later)
@@ -226,8 +254,8 @@ class _Walk:
         branches = []
         for s in singles:
             branch = Sequence(f"chain {s}", memory=True)
-            fork.add_child(branch)
-            branches.append((branch, s, level + 2))
+            fork.add_child(self.branch(branch))
+            branches.append((branch, s, level + 2 + self.cuttable))
         stack.extend(reversed(branches))
 
     def build(self) -> Parallel:
@@ -236,14 +264,15 @@ class _Walk:
         root.add_child(Sequence("begin", memory=True, children=[RunStart(self.env), roots]))
         for v in [v for v, p in self.pred.items() if not p]:  # file order (listed first: the walk may drop columns)
             seq = Sequence(f"chain {v}", memory=True)
-            roots.add_child(seq)
-            self.chain(seq, v, self.depth + 3)
+            roots.add_child(self.branch(seq))
+            self.chain(seq, v, self.depth + 3 + self.cuttable)
         while self.heads:
             _, v, preds, join, fork_of = heapq.heappop(self.heads)
             name = f"after {fork_of}" if fork_of else f"join {v}"
-            seq = Sequence(name, memory=True, children=[Trigger(self.env, preds, join)])
-            root.add_child(seq)
-            self.chain(seq, v, self.depth + 1, fork_of=fork_of or None)
+            trigger = (CutTrigger if self.cuttable else Trigger)(self.env, preds, join)
+            seq = Sequence(name, memory=True, children=[trigger])
+            root.add_child(self.branch(seq))
+            self.chain(seq, v, self.depth + 1 + self.cuttable, fork_of=fork_of or None)
         if self.consume and self.nodes:  # entries no walk reached: only a cycle hides them (when no order was taken)
             raise nx.NetworkXUnfeasible("the timeline has a cycle")
         return root

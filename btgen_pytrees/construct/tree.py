@@ -23,8 +23,9 @@ from typing import Any
 import py_trees
 from ..clock import Clock
 from ..leaves import Environment, Registry, default_registry, unique_namespace
+from ..leaves.control import StopGuard
 from ..leaves.wiring import EXECUTE, Completion, TreeRoot
-from ..model import TestCase
+from ..model import STATES, TestCase, state_signal
 from ..timeline import timeline
 from .execute import EXECUTE_DEPTH, MAX_DEPTH, walk_consuming
 from .oracle import oracle_subtree
@@ -58,12 +59,17 @@ def generate(
     """
     registry = registry if registry is not None else default_registry()
     env = Environment(namespace or unique_namespace(case.name), clock, case.signals)
+    for entry in case.entries:  # the states of the entries a `when` or a `stop` reads: false until they change
+        if entry.control is not None and entry.control.watched:
+            env.initial_signals.update((state_signal(entry.id, state), False) for state in STATES)
     graph = timeline(case, attributes=False)  # the timeline; the walk takes each node's entry from the case
     try:
         entries = {e.id: e for e in case.entries}
         walked = walk_consuming(graph, entries, env, registry, depth=EXECUTE_DEPTH, max_depth=max_depth)
     finally:
         graph.clear()  # networkx caches views that refer back to the graph: free it now, not at the next gc
+    if case.stop:  # the case's stop conditions, checked before any entry on every tick
+        walked = StopGuard(walked, case.stop, env)
     execute = Completion(walked, env, marks=EXECUTE, name="execute")
     oracle, others = oracle_subtree(case.criteria, dict(case.relation), env, registry)
     children: list[Any] = [execute] if oracle is None else [execute, oracle]

@@ -132,6 +132,16 @@ class Environment:
         self._failed = ns + "/failed/"
         self._execute_done = ns + "/execute_done"
         self._t0 = ns + "/t0"
+        self._stop = ns + "/stop/"
+        self._cut = ns + "/cut/"
+        self._stopped = ns + "/stopped"
+        self._pending: dict[str, Any] = {}  # states posted during a tick, written when the next begins (post())
+        self.ticks = 0
+        """Ticks of the tree begun so far (by its root: :meth:`begin_tick`), over every run."""
+        self.cutting = False
+        """Set by a stopped entry's node as its branch fails (docs/algorithms.md#control-flow); the branch's
+        :class:`~btgen_pytrees.leaves.wiring.Cuttable` takes it back and ends the branch as finished."""
+        self._cut_listeners: list[Callable[[str], None]] = []
         self._tick_time: float | None = None  # the clock as read when the current (or last) tick began
         self._done_listeners: list[Callable[[str], None]] = []
         self._flags = KeyMetaData()  # shared by the completion flags' keys (see the module docstring)
@@ -223,6 +233,8 @@ class Environment:
             for name in self._written:
                 storage.pop(signals + name, None)
         self._written = set()
+        self._pending = {}
+        self.cutting = False
         self._runs += 1
         t0 = self.clock.now() if self._tick_time is None else self._tick_time
         if client is not None and Blackboard.activity_stream is not None:
@@ -236,7 +248,15 @@ class Environment:
         """A tick of the tree begins: read the clock, once; :meth:`now` answers from this reading
         until the next tick begins. Returns the reading."""
         t = self._tick_time = self.clock.now()
+        self.ticks += 1
+        if self._pending:
+            self._flush()
         return t
+
+    def _flush(self) -> None:
+        pending, self._pending = self._pending, {}
+        for name, value in pending.items():
+            self.write(name, value)
 
     def now(self) -> float:
         """Seconds since the run's first tick (0.0 before it), as of the tick that runs (or ran last).
@@ -309,6 +329,50 @@ class Environment:
         until the garbage collector finds the cycle (``run()`` takes the tree it made apart once its
         report is made: :func:`btgen_pytrees.run.runner.take_apart`)."""
         self._done_listeners = []
+        self._cut_listeners = []
+
+    def post(self, name: str, value: Any) -> None:
+        """Set signal *name* when the next tick begins (an entry's state: docs/semantics.md#entry-states), so every
+        node of the tree sees the change on the same tick, whatever its place in the tree."""
+        self._pending[name] = value
+
+    # -- stops and cuts (the control-flow keys: btgen_pytrees.leaves.control) ----------------------------
+    def stop_key(self, entry_id: str) -> str:
+        """The blackboard key of the stop requests for entry *entry_id*: ``<ns>/stop/<id>``."""
+        return self._stop + entry_id
+
+    def request_stop(self, entry_id: str, by: str, now: float, how: str) -> None:
+        """Ask entry *entry_id* to stop (``stops`` or ``race``, said by *how*): a request of this tick, which the entry
+        honours on its next tick if it was running on this one."""
+        key = self._stop + entry_id
+        requests = Blackboard.storage.get(key)
+        if requests is None:
+            _set(key, [(by, self.ticks, now, how)], self._flags)
+        else:
+            requests.append((by, self.ticks, now, how))
+
+    def note_stop(self, label: str, now: float) -> None:
+        """The case's ``stop`` *label* fired at *now*: ``<ns>/stopped``."""
+        _set(self._stopped, (label, now), self._flags)
+
+    def stopped(self) -> tuple[str, float] | None:
+        """The ``stop`` that ended the run, and when (``None``: none did)."""
+        found = Blackboard.storage.get(self._stopped)
+        return found if isinstance(found, tuple) else None
+
+    def mark_cut(self, entry_id: str) -> None:
+        """Entry *entry_id* will never succeed in this run (stopped, or its branch was): ``<ns>/cut/<id>``; tells
+        the :meth:`listen_cut` listeners (a join waiting for it may now never fire)."""
+        _set(self._cut + entry_id, True, self._flags)
+        for listener in self._cut_listeners:
+            listener(entry_id)
+
+    def is_cut(self, entry_id: str) -> bool:
+        return (self._cut + entry_id) in Blackboard.storage
+
+    def listen_cut(self, listener: Callable[[str], None]) -> None:
+        """Call *listener* with the entry id each time :meth:`mark_cut` marks one."""
+        self._cut_listeners.append(listener)
 
     def is_done(self, entry_id: str) -> bool:
         return (self._done + entry_id) in Blackboard.storage

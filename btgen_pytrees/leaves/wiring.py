@@ -18,6 +18,9 @@ ordering work without the leaves knowing about it:
   predecessor is marked done (so a tick costs what runs, not what waits).
 * :class:`OrMember` - wraps each member of an ``||`` oracle group so the group is
   a real OR under py_trees' ``SuccessOnOne`` policy (see its docstring).
+* :class:`Cuttable` and :class:`CutTrigger` - in a case whose entries can be
+  stopped (``stops``, ``race``): a branch that a stopped entry ends is finished,
+  not failed, and a join that can no longer fire gives up (docs/algorithms.md#control-flow).
 """
 
 from __future__ import annotations
@@ -33,7 +36,8 @@ from ..contracts.environment import Environment
 from .composites import Parallel, ends_with_itself
 from .node import NODE_TICK, STATUSES, Node
 
-__all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE"]
+__all__ = ["TreeRoot", "RunStart", "Completion", "Trigger", "WakingParallel", "OrMember", "EXECUTE", "Cuttable",
+           "CutTrigger"]
 
 _logging = py_trees.logging
 _INFO = py_trees.logging.Level.INFO
@@ -227,6 +231,7 @@ class WakingParallel(Parallel):
         self._succeeded = 0
         self._passing = False
         env.listen_done(self._marked)
+        env.listen_cut(self._cut)
 
     def _prepare(self, everything: bool) -> None:
         """Queue the children for a full pass; with *everything*, also rebuild who waits for what."""
@@ -235,6 +240,8 @@ class WakingParallel(Parallel):
             sleeper: list[Trigger | None] = []
             waiters: dict[str, list[int]] = {}
             for i, child in enumerate(children):
+                if isinstance(child, Cuttable):
+                    child = child.decorated
                 first = child.children[0] if isinstance(child, py_trees.composites.Sequence) and child.children else None
                 trigger = first if isinstance(first, Trigger) and first.env is self.env else None
                 sleeper.append(trigger)
@@ -256,6 +263,19 @@ class WakingParallel(Parallel):
             if not queued[i]:
                 queued[i] = 1
                 if i > self._at:
+                    heappush(self._heap, i)
+                else:
+                    self._next.append(i)
+
+    def _cut(self, entry_id: str) -> None:
+        """:meth:`Environment.mark_cut` was called: the children waiting for *entry_id* look at their join in this
+        pass, even those before the child being ticked - a join that can no longer fire gives up on the tick
+        its last hope went, whatever the order (their trigger cannot fire from a cut: only give up or wait)."""
+        queued = self._queued
+        for i in self._waiters.get(entry_id, ()):
+            if not queued[i]:
+                queued[i] = 1
+                if self._passing:
                     heappush(self._heap, i)
                 else:
                     self._next.append(i)
@@ -288,7 +308,8 @@ class WakingParallel(Parallel):
         while heap:
             i = heappop(heap)
             queued[i] = 0
-            self._at = i
+            if i > self._at:  # (a join given up on may come back to an earlier child: see _cut)
+                self._at = i
             child = children[i]
             if child.status == _SUCCESS:
                 continue
@@ -386,4 +407,73 @@ class OrMember(py_trees.decorators.Decorator, Node):
             self.feedback_message = "every member of the group failed"
             return _FAILURE
         self.feedback_message = "failed; the group may still pass"
+        return _RUNNING
+
+
+class Cuttable(py_trees.decorators.Decorator, Node):
+    """A branch (a chain's Sequence under a Parallel) that a stopped entry may end: finished, not failed.
+
+    A stopped entry (:class:`~btgen_pytrees.leaves.control.Controlled`) or a join that can no longer fire
+    (:class:`CutTrigger`) fails its Sequence and sets the environment's ``cutting``; the failure reaches this
+    node first, which takes the flag back, marks every entry of the branch that is not done as *cut*
+    (:meth:`Environment.mark_cut`: joins waiting for them may give up in turn) and succeeds. Any other
+    failure passes through. Only cases with ``stops`` or ``race`` have these nodes.
+    """
+
+    def __init__(self, child: py_trees.behaviour.Behaviour, env: Environment):
+        super().__init__(name=child.name, child=child)
+        self.env = env
+        self.cut = False
+
+    def initialise(self) -> None:
+        self.cut = False
+
+    def update(self) -> Status:
+        """(Its :meth:`tick` decides; py_trees' ``Decorator`` asks every decorator for one.)"""
+        return self.decorated.status
+
+    @ends_with_itself
+    def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
+        if self.status != _RUNNING:
+            self.initialise()
+        decorated = self.decorated
+        if type(decorated).tick is NODE_TICK:
+            decorated.tick_now()
+            yield decorated
+        else:
+            yield from decorated.tick()
+        new_status = decorated.status
+        env = self.env
+        if new_status == _FAILURE and env.cutting:
+            env.cutting = False
+            self.cut = True
+            self.feedback_message = "ended by a stop"
+            for node in decorated.iterate():
+                if isinstance(node, Completion) and node.marks is not None and not env.is_done(node.marks):
+                    env.mark_cut(node.marks)
+            new_status = _SUCCESS
+        if new_status != _RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
+
+
+class CutTrigger(Trigger):
+    """A :class:`Trigger` that gives up once its join can no longer fire: ``any`` when every predecessor is cut,
+    ``all`` when one is (cut entries never succeed). It then fails with the environment's ``cutting`` set, so its
+    branch's :class:`Cuttable` ends the branch, unrun, as finished."""
+
+    def update(self) -> Status:
+        status = super().update()
+        if status != _RUNNING:
+            return status
+        is_cut, is_done = self.env.is_cut, self.env.is_done
+        if self.join == "any":
+            dead = all(is_cut(p) for p in self.waits_for)
+        else:
+            dead = any(is_cut(p) and not is_done(p) for p in self.waits_for)
+        if dead:
+            self.feedback_message = "never fires: a predecessor was stopped"
+            self.env.cutting = True
+            return _FAILURE
         return _RUNNING

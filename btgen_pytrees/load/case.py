@@ -41,6 +41,7 @@ from ..model import DEFAULT_JOIN, Entry, TestCase
 from ..contracts.system import SystemSpec
 from ..systems.simulated import SIMULATED
 from .context import Checker
+from .control import finish_control
 from .document import build_case, rest_fits
 from .entries import STAND_IN, Entries, entry_validator
 from .read import NotStreamed, parse_json, read_file, stream
@@ -199,7 +200,7 @@ def _meaning(data: Mapping[str, Any], rest: Mapping[str, Any], entries: Entries,
     for i, raw in todo:  # entries the loop left to the end: checked and built with words
         after = entries.after(checker, i, raw, execute_ids, set(criteria_ids)) if items is not None else (
             tuple(raw["after"]) if raw.get("after") else ())  # fmt: skip
-        built[i] = entries.entry(checker, i, raw, after, join)
+        built[i] = entries.entry(checker, i, raw, after, join, execute_ids or None)
     criteria = checker.criteria()
     done: list[Entry] = built  # type: ignore[assignment]
     if items is None:
@@ -211,6 +212,10 @@ def _meaning(data: Mapping[str, Any], rest: Mapping[str, Any], entries: Entries,
                 raise NotStreamed
     elif (entries.forward or todo) and not any(p.cause == "graph" for p in checker.problems):
         checker.cycles(done)  # (entries built in the loop whose 'after' points up the file make no cycle)
+    if not checker.problems:
+        done, stop = finish_control(checker, done, data)
+        if checker.problems and items is None:
+            raise NotStreamed
     if checker.problems:
         raise InvalidTestCase(sorted(set(checker.problems), key=by_place), source)
-    return build_case(data, done, criteria, checker.spec, registry, source)
+    return build_case(data, done, criteria, checker.spec, registry, source, stop)

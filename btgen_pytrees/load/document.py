@@ -9,7 +9,7 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 from ..leaves import Registry
-from ..model import DEFAULT_JOIN, DEFAULT_TICK, DEFAULT_TIMEOUT, Criterion, Entry, TestCase
+from ..model import DEFAULT_JOIN, DEFAULT_TICK, DEFAULT_TIMEOUT, Criterion, Entry, StopCondition, TestCase
 from ..contracts.system import SystemSpec
 from .schema import case_validator
 from .warnings import overlapping_writes
@@ -17,7 +17,7 @@ from .warnings import overlapping_writes
 __all__ = ["build_case", "rest_fits", "SMALL"]
 
 def build_case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Criterion], spec: SystemSpec,
-          registry: Registry, source: str) -> TestCase:  # fmt: skip
+          registry: Registry, source: str, stop: tuple[StopCondition, ...] = ()) -> TestCase:  # fmt: skip
     """The :class:`TestCase` of a valid document, from its checked entries and criteria."""
     relation = data.get("oracle", {}).get("relation", "&&")
     if isinstance(relation, str):
@@ -37,6 +37,7 @@ def build_case(data: Mapping[str, Any], entries: list[Entry], criteria: list[Cri
         system=spec,
         require_complete=bool(data.get("require_complete", False)),
         warnings=tuple(overlapping_writes(entries, registry)),
+        stop=stop,
     )
 
 

@@ -37,6 +37,7 @@ from ..contracts.registry import LeafType
 from ..model import DEFAULT_JOIN, EMPTY, Entry
 from ..validator import SchemaValidator
 from .context import Checker, freeze
+from .control import CONTROL_KEYS, control_fits, entry_control
 from .read import NotStreamed
 from .schema import inline_refs, schema
 from .values import SURROGATE, suspicious
@@ -73,6 +74,14 @@ _ENTRY = {
         "after": {"type": "array", "items": _ID},
         "join": {"enum": ["any", "all"]},
         "name": {"type": "string", "minLength": 1, "maxLength": 200},
+        "when": {"type": "string", "minLength": 1, "maxLength": 1000},
+        "edge": {"enum": ["none", "rising", "falling", "any"]},
+        "delay": {"type": "number", "minimum": 0},
+        "timeout": {"type": "number", "exclusiveMinimum": 0},
+        "attempts": {"type": "integer", "minimum": 1, "maximum": 1000000},
+        "repeat": {"type": "integer", "minimum": 1, "maximum": 1000000},
+        "stops": {"type": "array", "minItems": 1, "items": _ID},
+        "race": _ID,
     },
 }
 """The execute entry's schema (descriptions aside) as the conditions of :meth:`Entries.add_all` implement it."""
@@ -99,7 +108,7 @@ def entry_rules() -> _Rules:
     """The entry rules; an error when the schema's entry is not the one :meth:`Entries.add_all` implements
     (``tests/test_entries.py`` says so first)."""
     entry = _plain_schema(_entry_schema())
-    if entry != _ENTRY or frozenset(_FIELDS) != frozenset(entry["properties"]):
+    if entry != _ENTRY or frozenset(_FIELDS + CONTROL_KEYS) != frozenset(entry["properties"]):
         raise RuntimeError("the schema's execute entry changed: update load/entries.py (_ENTRY and Entries.add_all)")
     return _Rules(entry)
 
@@ -196,7 +205,8 @@ class Entries:
                 continue
             id_, kind, action, params, listed, join, name = map(raw.get, _FIELDS)
             # null is no valid value of any field, so this says: no other key, none null
-            if len(raw) != 3 + (params is not None) + (listed is not None) + (join is not None) + (name is not None):
+            controlled = len(raw) - 3 - (params is not None) - (listed is not None) - (join is not None) - (name is not None)
+            if controlled and control_fits(raw) != controlled:  # other keys: control keys of the right shape only
                 doubt(i, raw)
                 continue
             if type(id_) is not str or type(action) is not str or id_ in ids:
@@ -246,7 +256,7 @@ class Entries:
             new_id(id_)
             if count_keys:
                 keys += len(raw) + (len(params) if params else 0)
-            if leaf.later:
+            if leaf.later or controlled:  # a system's action, or control keys: they need the whole document
                 if params:
                     if count_keys:
                         keys += _nested_keys(params)
@@ -318,7 +328,7 @@ class Entries:
                 old = entries[i]
                 if old is not None:  # (the entries built at the end take the document's join themselves)
                     entries[i] = Entry(old.id, old.kind, old.action, old.params, old.after, join, old.name, old.index,
-                                       old.expressions)  # fmt: skip
+                                       old.expressions, old.control)  # fmt: skip
 
     def unsure(self) -> set[int]:
         """When the ids' pattern failed (:meth:`ids_valid`): the entries built or left for later whose id, or an
@@ -365,8 +375,10 @@ class Entries:
                 seen[pred] = None
         return tuple(seen)
 
-    def entry(self, checker: Checker, i: int, raw: Mapping[str, Any], after: tuple[str, ...], join: str) -> Entry:
-        """Execute entry *i* (*after* already checked): its leaf's params checked, or shared with equal ones."""
+    def entry(self, checker: Checker, i: int, raw: Mapping[str, Any], after: tuple[str, ...], join: str,
+              ids: set[str] | None = None) -> Entry:  # fmt: skip
+        """Execute entry *i* (*after* already checked): its leaf's params checked, or shared with equal ones; its
+        control keys checked against every execute id (*ids*; default: the ids read in the loop)."""
         kind, action, params = raw["kind"], raw["action"], raw.get("params")
         leaf = self.leaves.get((kind, action)) or self._leaf(kind, action)
         key = params_key(params) if leaf is not None else None
@@ -384,7 +396,7 @@ class Entries:
         return Entry(
             id=raw["id"], kind=kind, action=action, params=frozen, after=after,
             join=raw.get("join", join), name=raw.get("name", raw["id"]), index=i,
-            expressions=expressions,
+            expressions=expressions, control=entry_control(checker, i, raw, ids if ids is not None else self.ids),
         )  # fmt: skip
 
 

@@ -32,6 +32,7 @@ from typing import Callable, Iterable
 import py_trees
 from py_trees.common import Status
 
+from ..leaves.control import Controlled
 from ..leaves.oracles import Outcome, Record
 from ..leaves.wiring import RunStart
 from ..contracts.system import SystemFailure
@@ -45,7 +46,7 @@ __all__ = ["Collector", "Trace", "trace_line"]
 Trace = Callable[[str], None]
 _RUNNING, _SUCCESS, _FAILURE = Status.RUNNING, Status.SUCCESS, Status.FAILURE
 _STATUSES = (Status.INVALID, _RUNNING, _SUCCESS, _FAILURE)  # by status code (run.trace.STATUSES)
-_ENTRY, _ROOT, _START = 1, 2, 3
+_ENTRY, _ROOT, _START, _CONTROLLED = 1, 2, 3, 4
 
 
 def trace_line(now: float, event: str, what: str, message: str = "") -> str:
@@ -101,7 +102,7 @@ class Collector(py_trees.visitors.VisitorBase):
         # what each node is to the collector: 1 an entry, 2 the root, 3 the start leaf (0: nothing)
         self._watch = bytearray(len(nodes))
         for i in self._entries:
-            self._watch[i] = _ENTRY
+            self._watch[i] = _CONTROLLED if isinstance(nodes[i], Controlled) else _ENTRY
         self._watch[0] = _ROOT
         start = next((i for i, node in enumerate(nodes) if isinstance(node, RunStart)), None)
         if start is not None and not self._watch[start]:
@@ -216,6 +217,9 @@ class Collector(py_trees.visitors.VisitorBase):
 
     def _saw(self, i: int, watch: int, code: int, behaviour: py_trees.behaviour.Behaviour) -> None:
         """Node *i* is the root, the start leaf or an entry's: what its tick means."""
+        if watch == _CONTROLLED:
+            self._controlled(i, code, behaviour)  # type: ignore[arg-type]
+            return
         if watch != _ENTRY:
             if watch == _ROOT:
                 self.ticks += 1
@@ -245,6 +249,35 @@ class Collector(py_trees.visitors.VisitorBase):
             result.message = behaviour.feedback_message if code == 3 else ""
             if self.trace:
                 self.trace(trace_line(now, result.status, result.id, result.message))
+
+    def _controlled(self, i: int, code: int, node: Controlled) -> None:
+        """An entry with control keys: it starts when its action does (not while it waits for its ``when``), its
+        attempts and repetitions are traced, and a stop request ends it ``stopped``."""
+        self._fresh = False
+        result = self._slots[i]
+        if result.end is not None:
+            return
+        now = self._now
+        if now is None:
+            now = self._now = self.env.now()
+        trace = self.trace
+        events = node.events
+        if events:
+            for at, event, text in events:
+                if event == "start":
+                    if result.start is None:
+                        result.start, result.status = at, "running"
+                elif event == "stopped":
+                    continue  # traced as the entry's end, below
+                if trace:
+                    trace(trace_line(at, event, result.id, text))
+            events.clear()
+        if code >= 2:
+            result.end = now
+            result.status = "stopped" if node.cut else "success" if code == 2 else "failure"
+            result.message = node.why if code == 3 else ""
+            if trace:
+                trace(trace_line(now, result.status, result.id, result.message))
 
     # -- endings the tree's status cannot tell -------------------------------------
     def raised(self, exc: BaseException) -> EntryResult | None:
@@ -323,6 +356,8 @@ class Collector(py_trees.visitors.VisitorBase):
         else:  # the run is over: no tick changes its results any more (a re-run makes new ones)
             stop = verdict != "timeout"
             execute = [result.copy("stopped") if stop and result.status == "running" else result for result in self.ordered]
+            if self._watch.count(_CONTROLLED) or self.env.stopped() is not None:
+                execute = self._ended(execute, verdict)
         oracles = []
         criteria = {}
         for node in self._criteria:
@@ -350,6 +385,30 @@ class Collector(py_trees.visitors.VisitorBase):
             report.explanation = report.explanation or explain(report, self.root, self.env, criteria, self.last)
             report.tree = status_tree(self.root, self.last)
         return report
+
+
+    def _ended(self, execute: list[EntryResult], verdict: str) -> list[EntryResult]:
+        """What the end of the run says of the entries it caught: ``stopped by stop[0] at 2 s``, ``repetition 2 of 3
+        running at the timeout``."""
+        fired = self.env.stopped()
+        nodes = {result.id: self._nodes[i] for i, result in self._slots.items()}
+        out = []
+        for result in execute:
+            if result.status in ("running", "stopped", "not-started") and result.end is None:
+                node = nodes.get(result.id)
+                where = node.progress() if isinstance(node, Controlled) and node.status == _RUNNING else ""
+                message = result.message
+                if fired is not None and result.status == "stopped":
+                    message = f"stopped by {fired[0]} at {fired[1]:g} s" + (f" ({where})" if where else "")
+                elif where and verdict == "timeout" and result.status != "not-started":
+                    message = f"{where} at the timeout"
+                elif where and result.status == "not-started" and fired is None:
+                    message = where
+                if message != result.message:
+                    result = result.copy(result.status)
+                    result.message = message
+            out.append(result)
+        return out
 
 
 def _margin(value: object) -> float | None:

@@ -129,6 +129,7 @@ def run_tree(
         system.start(env)
         scene, places = _scene(system, collector)
         now_of, publish = system.now, system.publish
+        stops = bool(case.stop)
         for k in range(stop + 1):
             now = now_of()
             if type(now) is float and now >= then and now - now == 0.0:  # the usual answer, checked inline
@@ -157,6 +158,10 @@ def run_tree(
             if progress is not None:
                 progress(k + 1, then)
             if root.status in _DONE:
+                break
+            if stops and env.stopped() is not None:  # the case's stop fired, and a criterion is still undecided
+                label, at = env.stopped()
+                collector.end("fail", f"stopped by {label} at {at:g} s before every criterion was decided")
                 break
             if k < stop:
                 system.tick()

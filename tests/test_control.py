@@ -1,0 +1,268 @@
+"""The control-flow keys (docs/format.md#control-flow, docs/semantics.md#control-flow): each one run, tick by tick.
+
+Every test runs the generated tree against the simulated system and checks the times the report and the
+trace give - tick-exact, at tick 0.1 (tick k at t = round(k * 0.1, 9)).
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+from btgen_pytrees import InvalidTestCase, generate, load
+from btgen_pytrees.leaves.control import Attempts, Controlled, Gate, Repetitions, StopGuard, VirtualTimeout
+from btgen_pytrees.leaves.wiring import Cuttable
+from btgen_pytrees.run import run
+
+from helpers import case, crit, entry
+
+
+def results(report):  # type: ignore[no-untyped-def]
+    return {e.id: (e.status, e.start, e.end) for e in report.execute}
+
+
+def traced(data):  # type: ignore[no-untyped-def]
+    lines: list[str] = []
+    report = run(load(data), trace=lines.append)
+    return report, [" ".join(line.split()) for line in lines]
+
+
+def ramp_x(to: float = 10, duration: float = 2) -> dict:
+    """``x`` from 0 to *to* over *duration*: x = to / duration * t."""
+    return entry("R", action="ramp", signal="x", to=to, duration=duration)
+
+
+def test_when_without_after_starts_on_the_first_tick_it_holds() -> None:
+    # x = 5 t, written by R before B ticks (R is first): x > 3 first holds at t = 0.7 (x = 3.5)
+    b = {**entry("B", duration=0.5), "when": "x > 3"}
+    report = run(load(case(ramp_x(), b, signals={"x": 0})))
+    assert results(report)["B"] == ("success", 0.7, 1.2)
+
+
+def test_when_waits_after_the_predecessors() -> None:
+    # A ends at 1.0; x > 3 holds since 0.7: B starts on the tick A ended
+    b = {**entry("B", ["A"], duration=0.5), "when": "x > 3"}
+    report = run(load(case(ramp_x(), entry("A", duration=1), b, signals={"x": 0})))
+    assert results(report)["B"] == ("success", 1.0, 1.5)
+
+
+def test_rising_edge_never_fires_on_the_first_evaluation() -> None:
+    # x > 3 already holds when B begins to wait (A ends at 1.0): with rising, it must become false and true again
+    hold_b = {**entry("B", ["A"], duration=0.2), "when": "x > 3", "edge": "rising"}
+    report = run(load(case(ramp_x(), entry("A", duration=1), hold_b, signals={"x": 0}, timeout=5)))
+    assert results(report)["B"] == ("not-started", None, None)
+    # from the start, x rises through 3 at 0.7: the edge between 0.6 (x = 3, false) and 0.7 (true)
+    early = {**entry("B", duration=0.2), "when": "x > 3", "edge": "rising"}
+    report = run(load(case(ramp_x(), early, signals={"x": 0})))
+    assert results(report)["B"] == ("success", 0.7, 0.9)
+
+
+def test_falling_and_any_edges() -> None:
+    # x falls from 10 to 0 over 2 s (x = 10 - 5 t): x > 3 turns false at 1.4 (x = 3)
+    down = entry("R", action="ramp", signal="x", to=0, duration=2)
+    falling = {**entry("B", duration=0.1), "when": "x > 3", "edge": "falling"}
+    either = {**entry("C", duration=0.1), "when": "x > 3", "edge": "any"}
+    report = run(load(case(down, falling, either, signals={"x": 10})))
+    assert results(report)["B"] == ("success", 1.4, 1.5)
+    assert results(report)["C"] == ("success", 1.4, 1.5)
+
+
+def test_delay_counts_from_the_trigger() -> None:
+    b = {**entry("B", duration=0.5), "when": "x > 3", "delay": 0.25}  # fires at 0.7, starts at the first tick >= 0.95
+    a = {**entry("A", ["B"], duration=0.1)}
+    report = run(load(case(ramp_x(), b, a, signals={"x": 0})))
+    assert results(report)["B"] == ("success", 1.0, 1.5)
+    assert results(report)["A"] == ("success", 1.5, 1.6)
+    only_delay = {**entry("D", duration=0.5), "delay": 2}
+    assert results(run(load(case(only_delay))))["D"] == ("success", 2.0, 2.5)
+
+
+def test_timeout_fails_the_entry_on_the_first_tick_past_it() -> None:
+    report = run(load(case({**entry("A", duration=5), "timeout": 1.25})))
+    assert report.verdict == "fail"
+    assert results(report)["A"] == ("failure", 0.0, 1.3)
+    assert report.execute[0].message == "timed out after 1.25 s"
+    # an action that finishes on the tick the timeout falls due keeps its success
+    assert results(run(load(case({**entry("A", duration=1), "timeout": 1}))))["A"] == ("success", 0.0, 1.0)
+
+
+def test_attempts_start_again_on_the_tick_the_last_failed() -> None:
+    a = {**entry("A", action="until", expect="x > 100", timeout=0.5), "attempts": 3}
+    report, lines = traced(case(a, signals={"x": 0}))
+    assert results(report)["A"] == ("failure", 0.0, 1.5)
+    assert report.execute[0].message.startswith("attempt 3 of 3 failed: x > 100 still false after 0.5 s")
+    assert "0.5 attempt A 2 of 3 after: x > 100 still false after 0.5 s (x=0)" in lines
+    assert "1 attempt A 3 of 3 after: x > 100 still false after 0.5 s (x=0)" in lines
+    assert lines[-2].startswith("1.5 failure A attempt 3 of 3 failed")
+
+
+def test_an_attempt_that_succeeds_ends_the_entry() -> None:
+    # the second attempt of A sees x > 3 (x = 5 t from 0): until x > 3 with 0.5 s per attempt: 0-0.5 fails, 0.5-0.7 holds
+    a = {**entry("A", action="until", expect="x > 3", timeout=0.5), "attempts": 3}
+    report = run(load(case(ramp_x(), a, signals={"x": 0})))
+    assert results(report)["A"] == ("success", 0.0, 0.7)
+
+
+def test_timeout_inside_attempts_times_each_attempt() -> None:
+    a = {**entry("A", duration=5), "timeout": 1, "attempts": 2}
+    report = run(load(case(a)))
+    assert results(report)["A"] == ("failure", 0.0, 2.0)
+    assert report.execute[0].message == "attempt 2 of 2 failed: timed out after 1 s"
+
+
+def test_repeat_runs_in_a_row_and_waits_for_when_again() -> None:
+    report, lines = traced(case({**entry("A", duration=0.5), "repeat": 3}, {**entry("B", ["A"], duration=0.1)}))
+    assert results(report)["A"] == ("success", 0.0, 1.5)
+    assert results(report)["B"] == ("success", 1.5, 1.6)
+    assert "0.5 repeat A repetition 2 of 3" in lines and "1 repeat A repetition 3 of 3" in lines
+    # each repetition waits for its when: y toggles every 0.5 s (a set of 1 or 0 for 0.5 s, in a loop of 4)
+    toggles = [entry(f"T{i}", [f"T{i - 1}"] if i else [], action="set", signal="y", value=i % 2, duration=0.5)
+               for i in range(8)]  # fmt: skip
+    rep = {**entry("C", duration=0.1), "when": "y == 1", "edge": "rising", "repeat": 2}
+    report = run(load(case(*toggles, rep, signals={"y": 0})))
+    # y is 1 from 0.5 (rising seen at 0.5), 0 from 1.0, 1 from 1.5: C at 0.5-0.6, waits, again at 1.5-1.6
+    assert results(report)["C"] == ("success", 0.5, 1.6)
+
+
+def test_repeat_fails_at_the_first_failure() -> None:
+    a = {**entry("A", action="until", expect="x > 1", timeout=0.3), "repeat": 2}
+    report = run(load(case(ramp_x(to=10, duration=10), a, signals={"x": 0})))  # x = t: x > 1 from 1.1
+    assert results(report)["A"] == ("failure", 0.0, 0.3)
+    assert report.execute[1].message.startswith("repetition 1 of 2 failed: x > 1 still false after 0.3 s")
+
+
+def test_stops_stops_the_running_entries_on_the_next_tick() -> None:
+    # K starts at 2 and stops A (running) and C (not started: A's successor); A's successor never starts
+    data = case(entry("A", duration=10), entry("C", ["A"]), entry("W", duration=2),
+                {**entry("K", ["W"], duration=1), "stops": ["A", "C"]})  # fmt: skip
+    report, lines = traced(data)
+    assert report.verdict == "pass"  # no criteria: the timeline ended (A stopped, C never started)
+    got = results(report)
+    assert got["A"] == ("stopped", 0.0, 2.1) and got["C"] == ("not-started", None, None)
+    assert got["K"] == ("success", 2.0, 3.0)
+    assert report.execute[0].message == "stopped by K at 2 s"
+    assert "2.1 stopped A stopped by K at 2 s" in lines
+    assert report.duration == 3.0
+
+
+def test_a_stopped_entry_does_not_feed_a_join() -> None:
+    # J waits for all of A and B: A is stopped, so J never runs and the timeline still ends (join given up)
+    data = case(entry("A", duration=5), entry("B", duration=0.5), entry("J", ["A", "B"], join="all"),
+                {**entry("K", ["B"], duration=0.1), "stops": ["A"]})  # fmt: skip
+    report = run(load(data))
+    got = results(report)
+    assert got["A"][0] == "stopped" and got["J"] == ("not-started", None, None)
+    assert report.verdict == "pass" and report.duration == 0.6
+    # with join any, J starts from B
+    data["execute"][2]["join"] = "any"
+    assert results(run(load(data)))["J"] == ("success", 0.5, 1.5)
+
+
+def test_race_first_to_succeed_stops_the_others() -> None:
+    data = case({**entry("A1", duration=1), "race": "r"}, {**entry("A2", duration=2), "race": "r"},
+                {**entry("A3", duration=3), "race": "r"}, entry("N", ["A1", "A2", "A3"], duration=0.5))  # fmt: skip
+    report = run(load(data))
+    got = results(report)
+    assert got["A1"] == ("success", 0.0, 1.0)
+    assert got["A2"] == ("stopped", 0.0, 1.1) and got["A3"] == ("stopped", 0.0, 1.1)
+    assert report.execute[1].message == "lost the race to A1"
+    assert got["N"] == ("success", 1.0, 1.5)
+
+
+def test_race_ties_on_one_tick_both_win() -> None:
+    data = case({**entry("A1", duration=1), "race": "r"}, {**entry("A2", duration=1), "race": "r"})
+    got = results(run(load(data)))
+    assert got["A1"] == ("success", 0.0, 1.0) and got["A2"] == ("success", 0.0, 1.0)
+
+
+def test_stop_ends_the_run_with_the_oracles_verdict() -> None:
+    data = case(ramp_x(), entry("L", duration=30), criteria=[crit("F", "final", "x >= 5"), crit("P", "record", "x < 9")],
+                signals={"x": 0}, stop=[{"when": "x >= 6"}])  # fmt: skip
+    report, lines = traced(data)
+    # x >= 6 first holds after the tick at 1.2 (R writes 6 then); the stop is checked before the entries: at 1.3
+    assert report.verdict == "pass" and report.duration == 1.3
+    assert results(report)["L"][0] == "stopped"
+    assert report.execute[1].message == "stopped by stop[0] at 1.3 s"
+    assert [o.verdict for o in report.oracles] == ["pass", "pass"]
+    assert lines[-1].endswith("end pass")
+    data["oracle"]["criteria"][0]["expect"] = "x >= 7"
+    assert run(load(data)).verdict == "fail"
+
+
+def test_stop_with_delay_and_edge() -> None:
+    data = case(ramp_x(), entry("L", duration=30), signals={"x": 0},
+                stop=[{"when": "x > 3", "edge": "rising", "delay": 0.5}])  # fmt: skip
+    report = run(load(data))
+    # rising seen at 0.8 (x written at 0.7 after the stop's check): due at 1.3
+    assert report.verdict == "pass" and report.duration == 1.3
+
+
+def test_a_when_reads_another_entrys_state_from_the_next_tick() -> None:
+    data = case(entry("A", duration=1), {**entry("B", duration=0.5), "when": "A.ended"},
+                {**entry("C", duration=0.5), "when": "A.running && !A.ended"})  # fmt: skip
+    got = results(run(load(data)))
+    assert got["B"] == ("success", 1.1, 1.6)  # A ended at 1.0: seen from 1.1 on, whatever the order
+    assert got["C"] == ("success", 0.1, 0.6)  # A started at 0: seen running from 0.1
+
+
+def test_the_tree_holds_py_trees_decorators() -> None:
+    data = case({**entry("A", duration=1), "when": "x > 0", "edge": "rising", "delay": 1, "timeout": 2, "attempts": 2,
+                 "repeat": 3, "stops": ["B"]}, {**entry("B", duration=1), "race": "r"}, {**entry("C"), "race": "r"},
+                signals={"x": 0}, stop=[{"when": "x > 5"}])  # fmt: skip
+    root = generate(load(data))
+    kinds = {type(n) for n in root.iterate()}
+    assert {Controlled, Repetitions, Gate, Attempts, VirtualTimeout, StopGuard, Cuttable} <= kinds
+    import py_trees
+
+    assert issubclass(Attempts, py_trees.decorators.Retry) and issubclass(Repetitions, py_trees.decorators.Repeat)
+    assert issubclass(VirtualTimeout, py_trees.decorators.Timeout)
+    a = next(n for n in root.iterate() if isinstance(n, Controlled) and n.entry.id == "A")
+    order = [a]
+    while order[-1].children:
+        order.append(order[-1].children[-1])
+    assert [type(n).__name__ for n in order] == ["Controlled", "Repetitions", "Sequence", "Attempts", "VirtualTimeout",
+                                                 "Hold"]  # fmt: skip
+    assert type(order[2].children[0]) is Gate
+
+
+def test_plain_cases_build_no_control_nodes() -> None:
+    root = generate(load(str(pathlib.Path(__file__).parents[1] / "examples" / "fig1.json")))
+    assert not any(isinstance(n, (Controlled, Cuttable, StopGuard, Gate)) for n in root.iterate())
+
+
+@pytest.mark.parametrize(
+    "change, pointer, words",
+    [
+        ({"attempts": 0}, "/execute/1/attempts", "less than the minimum of 1"),
+        ({"edge": "rise"}, "/execute/1/edge", "did you mean 'rising'"),
+        ({"when": "spede > 1"}, "/execute/1/when", "unknown signal 'spede' in 'spede > 1' (did you mean 'speed'?)"),
+        ({"stops": ["AA"]}, "/execute/1/stops/0", "unknown id 'AA' (did you mean 'A'?)"),
+        ({"stops": ["B"]}, "/execute/1/stops/0", "'B' cannot stop itself"),
+        ({"race": "r"}, "/execute/1/race", "race 'r' has one entry"),
+        ({"edge": "rising"}, "/execute/1/edge", "an edge needs a 'when'"),
+        ({"delay": -1}, "/execute/1/delay", "must not be negative (got -1)"),
+        ({"timeout": 0}, "/execute/1/timeout", "less than or equal to the minimum of 0"),
+        ({"when": "A.endd"}, "/execute/1/when", "unknown signal 'A.endd'"),
+    ],
+)
+def test_bad_keys_are_named_at_their_pointer(change: dict, pointer: str, words: str) -> None:
+    data = case(entry("A"), {**entry("B"), **change}, signals={"speed": 0})
+    with pytest.raises(InvalidTestCase) as info:
+        load(data)
+    found = [(p.pointer, p.message) for p in info.value.problems]
+    assert any(p == pointer and words in m for p, m in found), found
+
+
+def test_repeat_in_a_race_is_refused_and_the_cli_exits_2(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    data = case({**entry("A"), "race": "r", "repeat": 2}, {**entry("B"), "race": "r"}, stop=[{"when": "B.strted"}])
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(data))
+    done = subprocess.run([sys.executable, "-m", "btgen_pytrees", "run", str(path)], capture_output=True, text=True)
+    assert done.returncode == 2
+    assert f"{path}: /execute/0/repeat: 'A' runs in race 'r'" in done.stderr
+    assert f"{path}: /stop/0/when: unknown signal 'B.strted'" in done.stderr
+    assert "Traceback" not in done.stderr

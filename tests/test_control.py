@@ -266,3 +266,61 @@ def test_repeat_in_a_race_is_refused_and_the_cli_exits_2(tmp_path) -> None:  # t
     assert f"{path}: /execute/0/repeat: 'A' runs in race 'r'" in done.stderr
     assert f"{path}: /stop/0/when: unknown signal 'B.strted'" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def modified_case() -> dict:
+    return case(ramp_x(), {**entry("B", duration=0.5), "when": "x > 3", "edge": "rising", "delay": 0.2, "timeout": 1,
+                           "attempts": 2, "repeat": 2, "stops": ["R"]},
+                signals={"x": 0}, stop=[{"when": "x > 9"}], timeout=5)  # fmt: skip
+
+
+def test_the_views_show_each_modifier() -> None:
+    from btgen_pytrees.render import text_tree, tree_data
+
+    root = generate(load(modified_case()))
+    text = text_tree(root)
+    for words in ("B · behavior: when x > 3 (rising), delay 0.2 s, timeout 1 s, 2 attempts, repeat 2, stops R",
+                  "trigger: starts when x > 3 (rising edge), then waits 0.2 s", "Retry: a failed attempt starts again",
+                  "Repeat: runs 2 times in a row", "Timeout: fails an attempt still running after 1 s",
+                  "action of B: behavior hold(duration=0.5)", "ends the run when x > 9"):  # fmt: skip
+        assert words in text, words
+    data = tree_data(root)
+    found = {}
+    stack = [data]
+    while stack:
+        node = stack.pop()
+        stack.extend(node["children"])
+        for key in ("control", "when", "attempts", "repeat", "timeout", "stop"):
+            if key in node:
+                found[key if key != "control" else f"control {node['id']}"] = node[key]
+    assert found["control R"] == {}
+    assert found["control B"] == {"when": "x > 3", "edge": "rising", "delay": 0.2, "timeout": 1.0, "attempts": 2,
+                                "repeat": 2, "stops": ["R"]}  # fmt: skip
+    assert found["attempts"] == 2 and found["repeat"] == 2 and found["timeout"] == 1.0
+    assert found["stop"] == [{"when": "x > 9", "edge": "none", "delay": 0.0}]
+
+
+def test_btcpp_export_uses_btcpps_own_decorators_and_the_btlog_records_them() -> None:
+    import xml.etree.ElementTree as ET
+
+    from btgen_pytrees.render.btcpp import btcpp_xml
+    from btgen_pytrees.run.btlog import btlog_bytes, parse_btlog
+
+    data = load(modified_case())
+    xml = btcpp_xml(generate(data))
+    tree = ET.fromstring(xml)
+    repeat = tree.find(".//Repeat")
+    assert repeat is not None and repeat.get("num_cycles") == "2"
+    delay = repeat.find("./Sequence/Delay")
+    assert delay is not None and delay.get("delay_msec") == "200"
+    retry = delay.find("./RetryUntilSuccessful")
+    assert retry is not None and retry.get("num_attempts") == "2"
+    timeout = retry.find("./Timeout")
+    assert timeout is not None and timeout.get("msec") == "1000"
+    assert timeout.find("./Action").get("ID") == "hold"
+    assert repeat.find("./Sequence/Action").get("when") == "x > 3"
+    report = run(data)
+    log = parse_btlog(btlog_bytes(report.trace, generate(data)))
+    uids = {e.get("name"): int(e.get("_uid")) for e in ET.fromstring(log.xml).iter() if e.get("_uid")}
+    changed = {uid for _, uid, _ in log.transitions}
+    assert {uids["repeat 2"], uids["2 attempts"], uids["timeout 1 s"]} <= changed

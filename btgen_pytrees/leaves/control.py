@@ -291,6 +291,7 @@ class Controlled(py_trees.decorators.Decorator, Node):
         self.why = ""
         self.events: list[tuple[float, str, str]] = []
         self.since = 0  # the tick number it became active on
+        self.halted = ""  # where it was when the run ended around it (progress())
 
     def initialise(self) -> None:
         self.reset()
@@ -367,6 +368,11 @@ class Controlled(py_trees.decorators.Decorator, Node):
         self.status = new_status
         yield self
 
+    def terminate(self, new_status: Status) -> None:
+        """Halted while it ran (the run ended around it): note where it was, before its children are reset."""
+        if new_status == _INVALID and self.status == _RUNNING:
+            self.halted = self.progress()
+
     def stopped(self, requests: list[tuple[str, int, float, str]]) -> bool:
         """Whether a stop request applies: written on an earlier tick than this one, on a tick it was running."""
         ticks = self.env.ticks
@@ -398,13 +404,13 @@ class Controlled(py_trees.decorators.Decorator, Node):
     def progress(self) -> str:
         """Where the entry was when the run ended around it: ``repetition 2 of 3 running``, ``attempt 2 of 3
         running``, ``waiting (when x > 3)``; empty when there is nothing to add."""
-        gate = self.waiting()
-        if gate is not None:
-            return f"waiting ({gate.name})"
         control = self.control
         parts = []
-        if control.repeat > 1:
+        if control.repeat > 1 and self.started is not None:
             parts.append(f"repetition {self.repetition} of {control.repeat}")
+        gate = self.waiting()
+        if gate is not None:
+            return " ".join([*parts, f"waiting ({gate.name})"])
         if control.attempts > 1:
             parts.append(f"attempt {self.attempt} of {control.attempts}")
         return (", ".join(parts) + " running") if parts else ""

@@ -61,7 +61,8 @@ from py_trees.composites import Composite, Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
 from ..errors import xml_safe
-from ..leaves.wiring import Completion, OrMember, RunStart, Trigger
+from ..leaves.control import Attempts, Controlled, Gate, Repetitions, StopGuard, VirtualTimeout
+from ..leaves.wiring import Completion, Cuttable, OrMember, RunStart, Trigger
 from .nodes import is_selected, policy_name, selected
 
 __all__ = ["btcpp_xml", "btcpp_document", "BtcppDocument", "port_value", "port_name", "port_names", "BUILTINS",
@@ -193,10 +194,45 @@ class _Export:
 
     # -- nodes ------------------------------------------------------------------
 
+    def control(self, parent: ET.Element, node: py_trees.behaviour.Behaviour) -> ET.Element | None:
+        """Elements for the nodes of the control-flow keys (BT.CPP's own where it has one); ``None`` for others."""
+        if isinstance(node, Controlled):
+            control = node.control
+            ports = []
+            if control.stops:
+                ports.append(_Port("stops", ";".join(control.stops), "ids of the entries it stops when it starts, ';'-separated"))
+            if control.race is not None:
+                ports.append(_Port("race", control.race, "its race group: the first member to succeed stops the others"))
+            return self.custom(parent, "Decorator", ("wiring", "Controlled"), "Controlled",
+                               "an entry with control keys: its status is the entry's; it honours stop requests",
+                               node.entry.label, ports)  # fmt: skip
+        if isinstance(node, Repetitions):
+            return ET.SubElement(parent, "Repeat", name=node.name, num_cycles=str(node.num_success))
+        if isinstance(node, Attempts):
+            return ET.SubElement(parent, "RetryUntilSuccessful", name=node.name, num_attempts=str(node.num_failures))
+        if isinstance(node, VirtualTimeout):
+            return ET.SubElement(parent, "Timeout", name=node.name, msec=str(round(node.duration * 1000)))
+        if isinstance(node, Gate):
+            condition = node.condition
+            if condition.when is None:
+                return None
+            ports = [_Port("when", condition.when.source, "the start condition (expression)"),
+                     _Port("edge", condition.edge, "none: holds; rising/falling/any: changes so")]  # fmt: skip
+            return self.custom(parent, "Action", ("wiring", "Gate"), "Gate",
+                               "RUNNING until its condition fires (the delay is the Delay after it)", node.name, ports)  # fmt: skip
+        if isinstance(node, StopGuard):
+            ports = [_Port("when", ";".join(s.when.source for s in node.stops), "the stop conditions, ';'-separated")]
+            return self.custom(parent, "Decorator", ("wiring", "StopGuard"), "StopGuard",
+                               "halts the timeline and succeeds when a stop condition fires", node.name, ports)  # fmt: skip
+        if isinstance(node, Cuttable):
+            return self.custom(parent, "Decorator", ("wiring", "Cuttable"), "Cuttable",
+                               "a branch a stopped entry ends as finished: its stop's failure becomes success", node.name, [])  # fmt: skip
+        return None
+
     def leaf_or_wiring(self, parent: ET.Element, node: py_trees.behaviour.Behaviour) -> ET.Element | None:
         """Elements for entries, criteria and wiring; ``None`` for other nodes."""
-        entry = getattr(node, "btgen_entry", None)
-        if entry is not None:
+        entry = getattr(node, "btgen_entry", None) or getattr(node, "btgen_action", None)
+        if entry is not None and not isinstance(node, Controlled):
             ports = [_Port(k, v, f"param {k!r} of the {entry.kind}") for k, v in entry.params.items()]
             return self.custom(parent, "Action", (entry.kind, entry.action), entry.action,
                                f"{entry.kind} action {entry.action!r} (execute entry)", entry.label, ports)  # fmt: skip
@@ -280,8 +316,11 @@ def _walk(root: py_trees.behaviour.Behaviour, top: ET.Element, export: _Export) 
         if node is not root and node.parent is not None and _unselected(node.parent, node):
             # Sequence(child, KeepRunningUntilFailure(AlwaysSuccess)): fails with the child, never succeeds
             wrapper = parent = ET.SubElement(parent, "Sequence", name=f"{node.name} (not selected)")
-        element = export.leaf_or_wiring(parent, node)
-        opaque = element is not None and not isinstance(node, (Completion, OrMember))
+        element = export.control(parent, node)
+        opaque = False
+        if element is None:
+            element = export.leaf_or_wiring(parent, node)
+            opaque = element is not None and not isinstance(node, (Completion, OrMember))
         if element is None:
             element = export.composite(parent, node)
         export.elements[id(node)] = element
@@ -289,6 +328,17 @@ def _walk(root: py_trees.behaviour.Behaviour, top: ET.Element, export: _Export) 
             keep = ET.SubElement(wrapper, "KeepRunningUntilFailure", name=f"{node.name} finished")
             export.wrappers[id(node)] = (wrapper, keep, ET.SubElement(keep, "AlwaysSuccess"))
         if not opaque:
+            children = list(node.children)
+            gate = children[0] if children and isinstance(children[0], Gate) else None
+            if gate is not None and gate.condition.delay:  # Sequence(gate, body): the body under BT.CPP's Delay
+                if gate.condition.when is not None:
+                    export.elements[id(gate)] = export.control(element, gate)  # type: ignore[assignment]
+                delay = ET.SubElement(element, "Delay", name=f"delay {gate.condition.delay:g} s",
+                                      delay_msec=str(round(gate.condition.delay * 1000)))  # fmt: skip
+                if gate.condition.when is None:
+                    export.elements[id(gate)] = delay
+                stack.extend((child, delay) for child in reversed(children[1:]))
+                continue
             stack.extend((child, element) for child in reversed(node.children))
 
 

@@ -14,7 +14,8 @@ import py_trees
 from py_trees.composites import Parallel, Selector, Sequence
 from py_trees.decorators import Decorator
 
-from ..leaves.wiring import Completion, OrMember, RunStart, TreeRoot, Trigger, WakingParallel
+from ..leaves.control import Attempts, Controlled, Gate, Repetitions, StopGuard, VirtualTimeout
+from ..leaves.wiring import Completion, Cuttable, OrMember, RunStart, TreeRoot, Trigger, WakingParallel
 
 __all__ = ["node_info", "walk", "depth_for", "symbol", "policy_name", "annotation", "role", "role_of", "selected", "is_selected", "type_name"]
 
@@ -66,7 +67,8 @@ def policy_name(node: Parallel) -> str:
 
 def role(node: py_trees.behaviour.Behaviour) -> str:
     """``behavior``, ``constraint``, ``oracle``, ``trigger``, ``wiring`` or ``composite``."""
-    return role_of(type(node), getattr(node, "btgen_entry", None), getattr(node, "btgen_criterion", None))
+    return role_of(type(node), getattr(node, "btgen_entry", None) or getattr(node, "btgen_action", None),
+                   getattr(node, "btgen_criterion", None))  # fmt: skip
 
 
 def role_of(cls: type, entry: Any = None, criterion: Any = None) -> str:
@@ -79,9 +81,9 @@ def role_of(cls: type, entry: Any = None, criterion: Any = None) -> str:
         return entry.kind  # type: ignore[no-any-return]
     if criterion is not None:
         return "oracle"
-    if issubclass(cls, Trigger):
+    if issubclass(cls, (Trigger, Gate)):
         return "trigger"
-    if issubclass(cls, (Completion, OrMember, RunStart)):
+    if issubclass(cls, (Completion, OrMember, RunStart, Attempts, Repetitions, VirtualTimeout, Cuttable, StopGuard)):
         return "wiring"
     return "composite"
 
@@ -110,6 +112,11 @@ def node_info(node: py_trees.behaviour.Behaviour) -> dict[str, Any]:
     entry = getattr(node, "btgen_entry", None)
     if entry is not None:
         info.update(id=entry.id, kind=entry.kind, action=entry.action, params=dict(entry.params))
+        if entry.control is not None:
+            info["control"] = _control(entry.control)
+    acts = getattr(node, "btgen_action", None)
+    if acts is not None:
+        info.update(action_of=acts.id, kind=acts.kind, action=acts.action, params=dict(acts.params))
     criterion = getattr(node, "btgen_criterion", None)
     if criterion is not None:
         info.update(id=criterion.id, criterion=criterion.type, expect=criterion.expect.source)
@@ -124,7 +131,45 @@ def node_info(node: py_trees.behaviour.Behaviour) -> dict[str, Any]:
         info["marks"] = node.marks if node.marks is not None else "execute"
     elif isinstance(node, OrMember):
         info.update(member=node.member, group=list(node.group))
+    elif isinstance(node, Gate):
+        condition = node.condition
+        if condition.when is not None:
+            info.update(when=condition.when.source, edge=condition.edge)
+        if condition.delay:
+            info["delay"] = condition.delay
+    elif isinstance(node, VirtualTimeout):
+        info["timeout"] = node.duration
+    elif isinstance(node, Attempts):
+        info["attempts"] = node.num_failures
+    elif isinstance(node, Repetitions):
+        info["repeat"] = node.num_success
+    elif isinstance(node, StopGuard):
+        info["stop"] = [{"when": s.when.source, "edge": s.edge, "delay": s.delay} for s in node.stops]
+    elif isinstance(node, Cuttable):
+        info["cuttable"] = True
     return info
+
+
+def _control(control: Any) -> dict[str, Any]:
+    """An entry's control keys as written (defaults left out)."""
+    out: dict[str, Any] = {}
+    if control.when is not None:
+        out["when"] = control.when.source
+    if control.edge != "none":
+        out["edge"] = control.edge
+    if control.delay:
+        out["delay"] = control.delay
+    if control.timeout is not None:
+        out["timeout"] = control.timeout
+    if control.attempts > 1:
+        out["attempts"] = control.attempts
+    if control.repeat > 1:
+        out["repeat"] = control.repeat
+    if control.stops:
+        out["stops"] = list(control.stops)
+    if control.race is not None:
+        out["race"] = control.race
+    return out
 
 
 def _value(v: Any) -> str:
@@ -141,6 +186,16 @@ def annotation(node: py_trees.behaviour.Behaviour) -> str:
         return text + (", synchronised" if info["synchronise"] else "")
     if "memory" in info:
         return "memory" if info["memory"] else "no memory"
+    if "action_of" in info:
+        params = ", ".join(f"{k}={_value(v)}" for k, v in info["params"].items())
+        return f"action of {info['action_of']}: {info['kind']} {info['action']}({params})"
+    if "control" in info:
+        label = f"{info['id']}: " if info["id"] != info["name"] else ""
+        control = node.control if isinstance(node, Controlled) else None
+        summary = control.summary if control is not None else ""
+        if not summary:
+            summary = "its states are read" if control is not None and control.watched else "may be stopped"
+        return f"{label}{info['kind']}: {summary}"
     if "action" in info and "kind" in info:
         params = ", ".join(f"{k}={_value(v)}" for k, v in info["params"].items())
         label = f"{info['id']}: " if info["id"] != info["name"] else ""
@@ -160,7 +215,28 @@ def annotation(node: py_trees.behaviour.Behaviour) -> str:
         return f"|| member; fails only when all of {', '.join(info['group'])} failed"
     if isinstance(node, RunStart):
         return "resets the blackboard namespace, starts the clock, sets initial signals"
+    if isinstance(node, Gate):
+        parts = [f"trigger: starts when {info['when']}" + (f" ({info['edge']} edge)" if info["edge"] != "none" else "")] \
+            if "when" in info else []
+        if "delay" in info:
+            parts.append(f"then waits {info['delay']:g} s" if parts else f"trigger: waits {info['delay']:g} s")
+        return ", ".join(parts)
+    if "timeout" in info:
+        return f"Timeout: fails an attempt still running after {info['timeout']:g} s (run clock)"
+    if "attempts" in info:
+        return f"Retry: a failed attempt starts again, {info['attempts']} attempts in all"
+    if "repeat" in info:
+        return f"Repeat: runs {info['repeat']} times in a row"
+    if "stop" in info:
+        return "ends the run when " + " or ".join(_stop_text(s) for s in info["stop"])
+    if "cuttable" in info:
+        return "a stopped entry ends this branch as finished"
     return ""
+
+
+def _stop_text(stop: dict[str, Any]) -> str:
+    return stop["when"] + (f" ({stop['edge']} edge)" if stop["edge"] != "none" else "") + (
+        f" + {stop['delay']:g} s" if stop["delay"] else "")  # fmt: skip
 
 
 def symbol(node: py_trees.behaviour.Behaviour) -> str:

@@ -165,10 +165,15 @@ def explain(report: Any, root: py_trees.behaviour.Behaviour, env: Any, criteria:
             expect = getattr(leaf, "entry", None) and leaf.entry.expressions.get("expect")  # type: ignore[union-attr]
             if expect is not None:  # an until: how far its condition is from holding
                 feedback = why_false(expect, env.values(expect.ordered_names)) or feedback
+            feedback = e.message or feedback  # an entry with control keys: "repetition 2 of 3 running at the timeout"
             running.append(f"  {e.label} running since {e.start:g} s ({now - e.start:g} s)" + (f": {feedback}" if feedback else ""))
     if running:
         lines.append("entries still running:")
         lines += _capped(running, "entries")
+    gates = [f"  {e.label} {e.message}" for e in report.execute if e.status == "not-started" and e.message.startswith("waiting")]
+    if gates:
+        lines.append("entries waiting for their start condition:")
+        lines += _capped(gates, "entries")
     undecided = [f"  {o.label} ({o.type}: {o.expect}) {_awaits(criteria.get(o.id))}" for o in report.oracles if o.verdict == "inconclusive"]
     if undecided:
         lines.append("criteria still undecided:")

@@ -6,7 +6,9 @@ trace give - tick-exact, at tick 0.1 (tick k at t = round(k * 0.1, 9)).
 
 from __future__ import annotations
 
+import importlib.util
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -324,3 +326,19 @@ def test_btcpp_export_uses_btcpps_own_decorators_and_the_btlog_records_them() ->
     uids = {e.get("name"): int(e.get("_uid")) for e in ET.fromstring(log.xml).iter() if e.get("_uid")}
     changed = {uid for _, uid, _ in log.transitions}
     assert {uids["repeat 2"], uids["2 attempts"], uids["timeout 1 s"]} <= changed
+
+
+@pytest.mark.skipif(importlib.util.find_spec("libsumo") is None and not os.environ.get("CI"),
+                    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)")  # fmt: skip
+def test_a_when_on_a_sumo_signal_fires_on_the_tick_the_gap_first_falls_under_20_m() -> None:
+    """examples/sumo/brake_on_gap.json: BRAKE starts on the first tick SUMO's ego.gap is under 20 m (rising: it
+    was not on the tick before), as libsumo published it before that tick - the trace's sample of the tick."""
+    path = pathlib.Path(__file__).parents[1] / "examples" / "sumo" / "brake_on_gap.json"
+    report = run(load(str(path)))
+    assert report.verdict == "pass"
+    gap = report.trace.series("ego.gap")
+    first = next(t for (t, g), (_, before) in zip(gap[1:], gap) if g < 20 <= before)
+    brake = next(e for e in report.execute if e.id == "BRAKE")
+    assert brake.status == "success" and brake.start == first == 4.3
+    quiet = run(load(str(path)), record=False)  # the SUMO run that publishes only what the tree reads
+    assert [(e.id, e.start, e.end) for e in quiet.execute] == [(e.id, e.start, e.end) for e in report.execute]

@@ -559,6 +559,102 @@ def sumo_loop_text(loop: dict[str, Any]) -> str:
             f"the search's run, ms (medians), SUMO started per run: {fresh}\n")  # fmt: skip
 
 
+# -- the search's own cost at scale ----------------------------------------------------------------------------
+
+
+def _spin(seconds: float) -> None:
+    """Busy for *seconds* of this process's processor time: a run that uses the processor, as a simulation does."""
+    end = time.process_time() + seconds
+    while time.process_time() < end:
+        pass
+
+
+def synthetic_search(d: int, budget: int, objective: Callable[[list[float]], float], run_s: float = 0.0,
+                     seed: int = 0, batch: int = 1) -> dict[str, Any]:  # fmt: skip
+    """A ``gp`` search (``stop: all``) of *budget* runs over *d* parameters in [0, 1] whose runs are
+    *objective* (the margin of one criterion; a run fails below 0) and *run_s* seconds of processor work
+    each: the search's own wall and processor time (all but the runs) against the runs'."""
+    from btgen_pytrees.falsify.space import Dimension
+
+    space = Space(tuple(Dimension(f"p{i}", "range", 0.0, 1.0, 0.001) for i in range(d)))
+    spent = [0.0, 0.0]
+    names = [f"p{i}" for i in range(d)]
+
+    def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        t0, c0 = time.perf_counter(), time.process_time()
+        rows = []
+        for p in points:
+            if run_s:
+                _spin(run_s)
+            m = objective([p[k] for k in names])
+            rows.append({"verdict": "pass" if m >= 0 else "fail", "margins": {"F1": m}})
+        spent[0] += time.perf_counter() - t0
+        spent[1] += time.process_time() - c0
+        return rows
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    search = Search(space, {}, Settings(budget=budget, seed=seed, batch=batch), evaluate, {"others": ("&&", ["F1"])}).run()
+    wall, cpu = time.perf_counter() - t0 - spent[0], time.process_time() - c0 - spent[1]
+    return {"d": d, "budget": budget, "runs": len(search.runs), "failures": sum(r.failed for r in search.runs),
+            "clusters": len(search.clusters), "own_wall_s": wall, "own_cpu_s": cpu, "runs_wall_s": spent[0],
+            "own_ms_per_run": 1000 * cpu / max(1, len(search.runs)),
+            "share": wall / spent[0] if run_s and spent[0] else None}  # fmt: skip
+
+
+def _two_valleys(x: list[float]) -> float:
+    """Never below 0.02: two valleys (at 0.2 and 0.75 in every coordinate, L1) and a ripple - no bowl the
+    quadratic model could take, so the Gaussian process chooses every batch."""
+    d = len(x)
+    return 0.02 + min(sum(abs(u - c) for u in x) / d for c in (0.2, 0.75)) + 0.01 * math.sin(20 * x[0])
+
+
+def _half(x: list[float]) -> float:
+    return x[0] - 0.5
+
+
+def _never(x: list[float]) -> float:
+    return 0.5 + x[0]
+
+
+def startup(runs: int = 5) -> dict[str, Any]:
+    """``falsify`` as a new process (imports, the pool of 2 workers, one run, the table): wall-clock and processor
+    seconds (its own and its workers'), the median of *runs*."""
+    import resource
+    import subprocess
+
+    walls, cpus = [], []
+    for _ in range(runs):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "btgen_pytrees", "falsify", str(case_path("island_2d")), "--budget", "2", "--jobs", "2"],
+                       check=False, capture_output=True)  # fmt: skip
+        walls.append(time.perf_counter() - t0)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return {"wall_s": statistics.median(walls), "cpu_s": statistics.median(cpus)}
+
+
+def scale(budget: int = 1500, d: int = 20, run_ms: float = 20.0) -> dict[str, Any]:
+    """The search's own cost at competition scale (issue 36): *budget* runs of *run_ms* over *d* parameters;
+    the bookkeeping's growth with the runs (a half-failing and a never-failing 2-parameter box); start-up."""
+    big = synthetic_search(d, budget, _two_valleys, run_ms / 1000)
+    half = [synthetic_search(2, n, _half) for n in (250, 500, 1000)]
+    never = synthetic_search(2, 20000, _never)
+    return {"scale": big, "half": half, "never": never, "startup": startup()}
+
+
+def scale_text(figures: dict[str, Any]) -> str:
+    big, st = figures["scale"], figures["startup"]
+    lines = ["", f"search's own cost, {big['d']} parameters, budget {big['budget']}, runs of {big['runs_wall_s'] / big['runs'] * 1000:.1f} ms "
+             f"(in-process, batch 1): {100 * big['share']:.1f} % of the runs' wall time ({big['own_wall_s']:.2f} s; CPU {big['own_cpu_s']:.2f} s, "
+             f"{big['own_ms_per_run']:.2f} ms a run)",
+             "bookkeeping, 2 parameters (the search's own CPU seconds, all runs 0 ms): half-failing box "
+             + ", ".join(f"{h['runs']} runs {h['own_cpu_s']:.2f} s ({h['failures']} failing, {h['clusters']} cluster{'s' * (h['clusters'] != 1)})" for h in figures["half"])
+             + f"; never-failing box {figures['never']['runs']} runs {figures['never']['own_cpu_s']:.2f} s",
+             f"falsify process start-up (imports, a pool of 2, 2 runs of island_2d, the table): {st['wall_s']:.2f} s wall, {st['cpu_s']:.2f} s CPU"]  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
 # -- the report --------------------------------------------------------------------------------------------
 
 
@@ -603,8 +699,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=0, metavar="N",
                         help="also run each case's search on N local workers kept for the search and on a pool started per batch")  # fmt: skip
     parser.add_argument("--workers-budget", type=int, default=60, metavar="RUNS", help="runs of each --workers search (default 60)")
+    parser.add_argument("--scale", action="store_true",
+                        help="only the search's own cost at scale: 20 parameters, budget 1,500, runs of 20 ms; bookkeeping against the runs; start-up")  # fmt: skip
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
     args = parser.parse_args(argv)
+    if args.scale:
+        figures = scale()
+        sys.stdout.write(scale_text(figures))
+        if args.json:
+            Path(args.json).write_text(json.dumps(figures, indent=2) + "\n")
+        return 0
     cases = [c for c in args.cases.split(",") if c]
     t0 = time.perf_counter()
     if not available():

@@ -72,8 +72,32 @@ def test_a_failure_found_is_exit_1_and_the_table_says_where(tmp_path: pathlib.Pa
     first = data["runs"][data["first_failure"] - 1]
     assert first["verdict"] == "fail" and all(r["verdict"] == "pass" for r in data["runs"][: data["first_failure"] - 1])
     shrunk = data["counterexamples"][0]
-    assert shrunk["kind"] == "shrunk" and shrunk["margin"] < 0
+    assert shrunk["kind"] == "shrunk" and shrunk["margin"] < 0 and shrunk["objective"] <= 0
     assert "FALSIFIED" in out and "uniform random" in out and shrunk["label"] in out
+
+
+def test_objective_and_margin_are_both_reported_named_and_the_margin_is_runs_own(tmp_path: pathlib.Path, capsys: Any) -> None:
+    """``objective`` is what the search minimises (the margins scaled: here divided by their spread over the
+    start); ``margin`` is the oracle's margin exactly as ``run --json`` reports it for that case - in every
+    run, every counterexample and the lowest run, and both in the table (a counterexample listed at
+    -0.01454 as "margin" ran to -0.056 alone)."""
+    out_dir = tmp_path / "cases"
+    assert main(["falsify", str(ISLAND), "--budget", "40", "--jobs", "1", "--json", str(tmp_path / "f.json"), "--out-dir", str(out_dir)]) == 1
+    table_text = capsys.readouterr().out
+    data = json.loads((tmp_path / "f.json").read_text())
+    scale = data["scales"]["F1"]
+    assert scale != 1.0
+    for r in data["runs"]:
+        assert r["margin"] == r["margins"]["F1"]  # one criterion: the oracle's margin is its margin
+        assert r["objective"] == pytest.approx(r["margin"] / scale if r["verdict"] == "pass" else min(0.0, r["margin"] / scale))
+    worst = data["worst"]
+    assert worst["objective"] == min(r["objective"] for r in data["runs"]) and worst["margin"] == data["runs"][worst["run"]]["margin"]
+    for ce in data["counterexamples"]:
+        path = next(p for p in out_dir.glob("*.json") if f"[{ce['label']}]" in p.name)
+        assert main(["run", str(path), "--json", str(tmp_path / "r.json")]) == 1
+        assert json.loads((tmp_path / "r.json").read_text())["margin"] == ce["margin"] != ce["objective"]
+    header = next(line for line in table_text.splitlines() if line.startswith("cluster"))
+    assert header.split()[-2:] == ["objective", "margin"] and "lowest objective:" in table_text
 
 
 def test_no_failure_is_exit_0_and_says_what_was_covered(tmp_path: pathlib.Path, capsys: Any) -> None:
@@ -155,6 +179,45 @@ def test_outputs_that_cannot_be_written_are_exit_2_before_anything_runs(tmp_path
     captured = capsys.readouterr()
     assert message.format(tmp=tmp_path) in captured.err and "internal error" not in captured.err
     assert captured.out == "" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]  # nothing ran, nothing written
+
+
+@pytest.mark.parametrize("where", ["input", "link", "json", "plot"])
+def test_a_counterexample_that_could_overwrite_the_input_or_an_output_is_refused_before_the_search(
+        tmp_path: pathlib.Path, capsys: Any, where: str) -> None:  # fmt: skip
+    """The counterexamples' names are known only after the search: every file one could be written to -
+    the input sitting in --out-dir under such a name, a link of such a name to it, --json or --plot there -
+    is refused at once, exit 2 (the input was overwritten, its variations lost; --json there was exit 3
+    after the search, the report lost)."""
+    out = tmp_path / "cases"
+    out.mkdir()
+    source = write(tmp_path, island(), "island.json") if where != "input" else write(out, island(), "island_2d[a=1,b=2].json")
+    before = pathlib.Path(source).read_bytes()
+    extra: list[str] = []
+    if where == "link":
+        (out / "island_2d[a=3,b=1].json").symlink_to(source)
+    elif where == "json":
+        extra = ["--json", str(out / "island_2d[a=3,b=1].json")]
+    elif where == "plot":
+        extra = ["--plot", str(out / "island_2d[a=3,b=1].html")]
+    assert main(["falsify", source, "--budget", "20", "--jobs", "1", "--out-dir", str(out), *extra]) == 2
+    captured = capsys.readouterr()
+    assert "refusing to overwrite it" in captured.err and "--out-dir" in captured.err, captured.err
+    assert captured.out == "" and pathlib.Path(source).read_bytes() == before
+    assert len(list(out.iterdir())) == (0 if where in ("json", "plot") else 1)  # nothing ran, nothing written
+    # elsewhere, the same search runs and writes its counterexamples
+    assert main(["falsify", source, "--budget", "20", "--jobs", "1", "--out-dir", str(tmp_path / "elsewhere")]) == 1
+
+
+def test_integer_valued_numbers_in_the_search_block_are_integers(tmp_path: pathlib.Path, capsys: Any) -> None:
+    """"batch": 2.0 and "seed": 1e0 are 2 and 1 (they were a TypeError, exit 3); 2.5 is exit 2 naming the path."""
+    path = write(tmp_path, island(search={"batch": 2.0, "seed": 1e0, "budget": 1.2e1, "start": 4.0}))
+    assert main(["falsify", path, "--jobs", "1", "--json", str(tmp_path / "f.json")]) in (0, 1)
+    report = json.loads((tmp_path / "f.json").read_text())
+    assert (report["batch"], report["seed"], report["budget"], report["start"], report["runs_done"]) == (2, 1, 12, 4, 12)
+    assert '"batch": 2,' in (tmp_path / "f.json").read_text()
+    capsys.readouterr()
+    assert main(["falsify", write(tmp_path, island(search={"batch": 2.5}), "half.json"), "--jobs", "1"]) == 2
+    assert "/search/batch: 2.5 is not of type 'integer'" in capsys.readouterr().err
 
 
 def test_the_json_on_stdout_is_the_document_alone_and_the_table_goes_to_stderr(tmp_path: pathlib.Path) -> None:
@@ -530,9 +593,9 @@ def test_a_batch_that_is_the_quadratics_point_alone_leaves_the_gaussian_process_
     model = search.sampler.model
     propose = model.propose
 
-    def counted(X: Any, y: Any, n: int, first: Any = None) -> Any:
+    def counted(X: Any, y: Any, n: int, first: Any = None, told: Any = None) -> Any:
         calls.append(len(y))
-        return propose(X, y, n, first=first)
+        return propose(X, y, n, first=first, told=told)
 
     model.propose = counted  # type: ignore[method-assign]
     quadratic: list[bool] = []
@@ -731,25 +794,58 @@ def test_a_counterexample_whose_values_make_no_valid_case_is_written_and_run_say
     assert "/execute/0/params/duration: must not be negative" in capsys.readouterr().err
 
 
-def test_counterexamples_at_one_point_are_one_file(tmp_path: pathlib.Path) -> None:
-    """Where the nominal point fails, every cluster's shrink ends there: the clusters' counterexamples are
-    one case, written once (two writes of one file were an internal error, exit 3, and no file at all)."""
+def test_a_box_that_fails_everywhere_is_one_cluster_each_run_counted_once(tmp_path: pathlib.Path) -> None:
+    """Where every setting fails, the first cluster's shrink and bound reach the nominal point and every edge:
+    its box is the whole box, and every later failure lies in it - one cluster (it was 5 identical ones),
+    whose runs are the search's runs, each once (a run in several clusters made "45 runs" of a 40-run
+    search). Its counterexamples are written once each and replay their verdict and margins."""
     data = island()
     data["oracle"]["criteria"][0]["expect"] = "x < -1"  # fails everywhere, the nominal point too
     out = tmp_path / "cases"
     target = tmp_path / "f.json"
-    assert main(["falsify", write(tmp_path, data), "--budget", "30", "--jobs", "1", "--out-dir", str(out), "--json", str(target)]) == 1
+    assert main(["falsify", write(tmp_path, data), "--budget", "40", "--jobs", "1", "--out-dir", str(out), "--json", str(target)]) == 1
     report = json.loads(target.read_text())
-    labels = {ce["label"] for ce in report["counterexamples"]}
-    assert len(report["clusters"]) > 1 and len(labels) < len(report["counterexamples"])  # the case above
-    # and the nominal point ran once: a later cluster's shrink takes the run it has (it ran it again, each time)
+    assert len(report["clusters"]) == 1
+    (cluster,) = report["clusters"]
+    assert cluster["runs"] == len(cluster["members"]) == len(set(cluster["members"])) == report["runs_done"] == 40
+    assert cluster["box"] == {"a": [0, 10], "b": [0, 5]}
+    assert report["baselines"]["failing_share"] == 1.0
+    # the nominal point ran once (its shrink took the run it had), and it is the counterexample
     assert [r["parameters"] for r in report["runs"]].count(report["parameters"]) == 1
+    assert report["counterexamples"][0]["parameters"] == report["parameters"]
+    labels = {ce["label"] for ce in report["counterexamples"]}
     files = sorted(out.glob("*.json"))
     assert len(files) == len(labels)
     for ce in report["counterexamples"]:
         path = next(f for f in files if f"[{ce['label']}]" in f.name)
         again = run(btgen_pytrees.load(str(path)))
         assert again.verdict == ce["verdict"] and {o.id: o.margin for o in again.oracles} == ce["margins"]
+
+
+def test_failures_of_a_shrink_or_bound_join_the_cluster_they_are_near_and_each_run_one_cluster() -> None:
+    """Two failing islands and a search long enough to meet both: every failing run is in exactly one
+    cluster, whatever phase found it (a failure met while shrinking one cluster towards the nominal point
+    joins the cluster it lies near), and no cluster counts a run twice."""
+    from btgen_pytrees.falsify import Search, Settings
+    from btgen_pytrees.falsify.space import Dimension, Space
+
+    space = Space((Dimension("a", "range", 0.0, 1.0, 0.001), Dimension("b", "range", 0.0, 1.0, 0.001)))
+
+    def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        rows = []
+        for p in points:  # islands at (0.15, 0.5) and (0.85, 0.5); the nominal point (0.5, 0.5) between them
+            m = min(math.hypot(p["a"] - 0.15, p["b"] - 0.5), math.hypot(p["a"] - 0.85, p["b"] - 0.5)) - 0.08
+            rows.append({"verdict": "fail" if m < 0 else "pass", "margins": {"F1": m}})
+        return rows
+
+    search = Search(space, {"a": 0.5, "b": 0.5}, Settings(budget=300, seed=1), evaluate, {"others": ("&&", ["F1"])}).run()
+    failing = [r.index for r in search.runs if r.failed]
+    members = [i for c in search.clusters for i in c.members]
+    assert sorted(members) == failing  # each failing run in one cluster, once
+    assert len(search.clusters) == 2
+    for c in search.clusters:
+        centre = 0.15 if search.runs[c.members[0]].parameters["a"] < 0.5 else 0.85
+        assert all(abs(search.runs[i].parameters["a"] - centre) < 0.1 for i in c.members)
 
 
 @pytest.mark.skipif(not os.environ.get("CI") and __import__("importlib").util.find_spec("libsumo") is None,
@@ -1024,3 +1120,107 @@ def test_workers_leave_when_falsify_is_killed(tmp_path: pathlib.Path) -> None:
     for pid in left:
         os.kill(pid, signal.SIGKILL)
     assert not left, left
+
+
+def test_the_failing_share_is_the_union_of_the_clusters_boxes_never_their_sum() -> None:
+    """Overlapping boxes count their overlap once: the union by inclusion-exclusion over every subset of up
+    to four random boxes (continuous and list parameters), and two boxes that overlap by half of each."""
+    import itertools
+    import random
+
+    from btgen_pytrees.falsify.report import union_share
+    from btgen_pytrees.falsify.space import Dimension, Space
+
+    space = Space((Dimension("a", "range", 0.0, 1.0, 0.01), Dimension("b", "range", 0.0, 1.0, 0.01), Dimension("c", "list", choices=(1, 2, 3))))
+    half = [(0.0, 0.5), (0.0, 1.0), {0, 1, 2}]
+    assert union_share(space, [half, [(0.25, 0.75), (0.0, 1.0), {0, 1, 2}]]) == pytest.approx(0.75)  # the sum: 1.0
+    rng = random.Random(5)
+
+    def box() -> list[Any]:
+        a, b = sorted(rng.random() for _ in range(2)), sorted(rng.random() for _ in range(2))
+        return [tuple(a), tuple(b), set(rng.sample(range(3), rng.randint(1, 3)))]
+
+    def meet(boxes: Any) -> float:
+        v = 1.0
+        for k in range(2):
+            v *= max(0.0, min(b[k][1] for b in boxes) - max(b[k][0] for b in boxes))
+        return v * len(set.intersection(*(b[2] for b in boxes))) / 3
+
+    for _ in range(200):
+        boxes = [box() for _ in range(rng.randint(1, 4))]
+        expected = sum((-1) ** (len(s) + 1) * meet(s) for n in range(1, len(boxes) + 1) for s in itertools.combinations(boxes, n))
+        assert union_share(space, boxes) == pytest.approx(expected, abs=1e-12)
+
+
+# -- the search's own cost (figures in benchmarks/falsify.py --scale; these check the mechanisms) -----------
+
+
+def test_the_sobol_points_are_scipys_bit_for_bit() -> None:
+    """The points worked out from SciPy's table of direction numbers (without importing scipy.stats) are
+    SciPy's ``qmc.Sobol(d, scramble=False)`` points exactly, in every dimension the searches use."""
+    import numpy
+    from scipy.stats import qmc
+
+    from btgen_pytrees.falsify.qmc import SOBOL_BITS, sobol_points
+
+    for d in (1, 2, 5, 20, 41):
+        for m in (0, 10):
+            expected = (qmc.Sobol(d=d, scramble=False, bits=SOBOL_BITS).random_base2(m) * 2.0**SOBOL_BITS).astype(numpy.int64)
+            assert numpy.array_equal(sobol_points(d, m), expected), (d, m)
+
+
+def test_a_gp_search_imports_neither_scipy_stats_nor_optuna_nor_cmaes() -> None:
+    """A falsify process's start-up: the gp method pays for no other method's imports (scipy.stats alone cost
+    about 1 s of processor time); tpe imports Optuna when it starts."""
+    code = (
+        "import sys, json\n"
+        "from btgen_pytrees.cli import main\n"
+        f"main(['falsify', {str(ISLAND)!r}, '--budget', '12', '--jobs', '1', '--json', '/dev/null'])\n"
+        "print(json.dumps(sorted(m for m in ('scipy.stats', 'optuna', 'cmaes') if m in sys.modules)), file=sys.stderr)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert json.loads(done.stderr.strip().splitlines()[-1]) == [], done.stderr
+
+
+def test_the_models_run_on_one_blas_thread_and_the_setting_is_put_back() -> None:
+    """Inside the sampler's calls the BLAS libraries run on one thread (threadpoolctl); outside them, as
+    they were (the host's and the runs' threads are not limited)."""
+    from threadpoolctl import threadpool_info
+
+    search = _island_search("island_4d", budget=24, method="gp", seed=0)
+    seen: list[set[int]] = []
+    propose = search.sampler.model.propose
+
+    def watched(*args: Any, **kwargs: Any) -> Any:
+        seen.append({p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"})
+        return propose(*args, **kwargs)
+
+    search.sampler.model.propose = watched  # type: ignore[method-assign]
+    before = {p["filepath"]: p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"}
+    search.run()
+    assert seen and all(s == {1} for s in seen)
+    assert {p["filepath"]: p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"} == before
+
+
+def test_the_bookkeeping_grows_linearly_with_the_runs() -> None:
+    """A half-failing 2-parameter box: 1,000 runs cost the search about 4 times what 250 do (they took 8 s and
+    269 s: 34 times), measured in this process's processor time, the runs themselves free."""
+    import time
+
+    from btgen_pytrees.falsify import Search, Settings
+    from btgen_pytrees.falsify.space import Dimension, Space
+
+    space = Space((Dimension("a", "range", 0.0, 1.0, 0.001), Dimension("b", "range", 0.0, 1.0, 0.001)))
+
+    def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return [{"verdict": "fail" if p["a"] < 0.5 else "pass", "margins": {"F1": p["a"] - 0.5}} for p in points]
+
+    def cost(budget: int) -> float:
+        t = time.process_time()
+        search = Search(space, {}, Settings(budget=budget, seed=2), evaluate, {"others": ("&&", ["F1"])}).run()
+        assert len(search.runs) == budget and sum(r.failed for r in search.runs) > budget / 3
+        return time.process_time() - t
+
+    cost(60)  # warm: the libraries' first calls
+    small, large = min(cost(250) for _ in range(2)), cost(1000)
+    assert large < 8 * small, (small, large)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import math
+import os
 import signal
 import sys
 from typing import Any
@@ -25,12 +26,13 @@ from ..falsify.sampler import HINT, METHODS, available
 from ..falsify.search import Search
 from ..falsify.space import Space
 from ..load import validate
-from ..writing import check_distinct, check_target, commit, emit, on_stdout
+from ..writing import check_distinct, check_target, commit, emit, on_stdout, same_file
 from ..parallel import Interrupted, Workers, progress_stream
 from ..run.plot import plot_format
 from ..load.sweep import load_sweep
 from ..load.template import Sweep
 from ..load.variations import format_value
+from ..sweep.runs import file_name
 from ..systems.sumo import keep_simulations, release_simulations, reuse_simulations
 from .checks import check_out_dir, make_out_dir
 from .options import Parents, registry
@@ -68,22 +70,50 @@ def progress_line(stream: Any) -> Any:
     def show(search: Search) -> None:
         best = min((r.objective for r in search.runs if r.objective is not None), default=None)
         fails = sum(1 for r in search.runs if r.failed)
-        stream.write(f"\rfalsify: {len(search.runs)}/{search.settings.budget} runs, best margin "
+        stream.write(f"\rfalsify: {len(search.runs)}/{search.settings.budget} runs, lowest objective "
                      f"{'-' if best is None else format_value(round(best, 6) + 0.0)}, {fails} failing   ")  # fmt: skip
         stream.flush()
 
     return show
 
 
-def check_outputs(args: argparse.Namespace) -> None:
-    """--json, --plot and --out-dir can be written, and --json and --plot are two files (checked before
-    anything runs)."""
+def check_outputs(args: argparse.Namespace, name: str) -> None:
+    """--json, --plot and --out-dir can be written, --json and --plot are two files, and no counterexample
+    written to --out-dir can land on the input, --json or --plot (checked before anything runs: the
+    counterexamples' names are known only after the search, so every name one could take is refused)."""
     for path, option in ((args.json, "--json"), (args.plot, "--plot")):
         if path:
             check_target(path, option, [args.file])  # OutputError: a usage error
     check_distinct([("--json", args.json), ("--plot", args.plot)])
     if args.out_dir:
         check_out_dir(args, [args.file], writes_json=False)  # a directory, or one that can be made
+        check_counterexample_names(args.out_dir, name, [("the input", args.file), ("--json", args.json), ("--plot", args.plot)])
+
+
+def check_counterexample_names(out_dir: str, name: str, others: list[tuple[str, str | None]]) -> None:
+    """Refuse (exit 2) when a file a counterexample could be written to - ``NAME[LABEL].json`` in *out_dir*, or
+    its replay page ``.html`` - is one of *others* (``(what, path)``): by its name there, or as an entry of
+    *out_dir* under such a name that is a link to it."""
+    stem = file_name(name, "x", 0).partition("[")[0]
+    stems = (stem + "[", stem[:120] + "[")
+
+    def could_be_written(path: str) -> bool:
+        base = os.path.basename(path)
+        return base.startswith(stems) and base.endswith(("].json", "].html"))
+
+    real = os.path.realpath(out_dir)
+    entries = []
+    if os.path.isdir(out_dir):
+        entries = [os.path.join(out_dir, e) for e in sorted(os.listdir(out_dir)) if could_be_written(e)]
+    for what, path in others:
+        if not path or path == "-":
+            continue
+        here = os.path.realpath(os.path.dirname(os.path.abspath(path))) == real and could_be_written(path)
+        linked = next((e for e in entries if same_file(e, path) or os.path.realpath(e) == os.path.realpath(path)), None)
+        if here or linked:
+            at = path if here else f"{linked} (a link to {path})"
+            raise UsageError(f"--out-dir {out_dir}: a counterexample's case or replay page could be written to {at}, "
+                             f"which is {what}; refusing to overwrite it - choose another directory")  # fmt: skip
 
 
 def cmd_falsify(args: argparse.Namespace) -> int:
@@ -94,7 +124,7 @@ def cmd_falsify(args: argparse.Namespace) -> int:
     criteria = {c.get("id") for c in (sweep.template.get("oracle") or {}).get("criteria", []) if isinstance(c, dict)}
     criteria_ids = {c for c in criteria if isinstance(c, str)}
     settings = settings_of(sweep.search, vars(args), criteria_ids, sweep.source, args.jobs)  # refused before connecting
-    check_outputs(args)
+    check_outputs(args, sweep.name)
     if args.plot:  # a bad suffix or a missing extra: refused before anything runs
         try:
             plot_format(args.plot)

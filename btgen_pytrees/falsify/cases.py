@@ -32,6 +32,10 @@ from .search import Settings
 __all__ = ["settings_of", "concrete_case", "evaluator", "counterexample_files"]
 
 
+_COUNTS = ("budget", "seed", "batch", "start")
+"""The settings that are whole numbers."""
+
+
 def _bad(path: tuple[Any, ...], message: str) -> Problem:
     return Problem(("search", *path), message, "parameter")
 
@@ -60,7 +64,9 @@ def settings_of(block: Mapping[str, Any] | None, options: Mapping[str, Any], cri
             raise UsageError(f"--{option} {value}: {error.message} (as search.{option} in the file)")
     pick = {k: (options.get(k) if options.get(k) is not None else block.get(k))
             for k in ("budget", "method", "seed", "batch", "stop", "start")}  # fmt: skip
-    given = {k: v for k, v in pick.items() if v is not None}
+    # an integer-valued number is an integer (the schema's "integer": 2.0 and 1e0 are 2 and 1, as a sweep's
+    # samples reads 1e1; 2.5 was refused by it)
+    given = {k: (int(v) if isinstance(v, float) and k in _COUNTS else v) for k, v in pick.items() if v is not None}
     given.setdefault("batch", max(1, workers))
     return Settings(scale=dict(block.get("scale", {})), **given)
 

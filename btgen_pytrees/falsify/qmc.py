@@ -40,14 +40,66 @@ function is infinite at 0 and 1)."""
 @functools.lru_cache(maxsize=16)
 def sobol_points(d: int, m: int) -> Any:
     """The first 2**m points of Sobol's sequence in *d* dimensions, unscrambled, as integers of
-    :data:`SOBOL_BITS` bits (SciPy's ``qmc.Sobol``: its direction numbers; made once per process and size,
-    never written)."""
-    import numpy
-    from scipy.stats import qmc
+    :data:`SOBOL_BITS` bits: SciPy's ``qmc.Sobol(d, scramble=False).random_base2(m)``, bit for bit (its
+    direction numbers, the Joe-Kuo table SciPy ships; made once per process and size, never written).
 
-    points = (qmc.Sobol(d=d, scramble=False, bits=SOBOL_BITS).random_base2(m) * 2.0**SOBOL_BITS).astype(numpy.int64)
+    They are worked out here from SciPy's table rather than by ``scipy.stats.qmc``: importing
+    ``scipy.stats`` costs about 1 s of processor time, most of a ``falsify`` process's start-up, for
+    a few hundred points made in a millisecond (each point is the XOR of the direction numbers of its
+    index's Gray code's bits). Where the table is not found, SciPy makes them."""
+    import numpy
+
+    table = _direction_table()
+    if table is None or d > len(table[0]):  # pragma: no cover - SciPy without its table file
+        from scipy.stats import qmc
+
+        points = (qmc.Sobol(d=d, scramble=False, bits=SOBOL_BITS).random_base2(m) * 2.0**SOBOL_BITS).astype(numpy.int64)
+    else:
+        v = numpy.array(_directions(table, d), dtype=numpy.int64)  # d x bits
+        index = numpy.arange(1 << m, dtype=numpy.int64)
+        gray = index ^ (index >> 1)
+        points = numpy.zeros((1 << m, d), dtype=numpy.int64)
+        for bit in range(m):
+            points ^= ((gray >> bit) & 1)[:, None] * v[:, bit]
     points.flags.writeable = False
     return points
+
+
+@functools.lru_cache(maxsize=1)
+def _direction_table() -> tuple[Any, Any] | None:
+    """SciPy's Sobol table (primitive polynomials and initial direction numbers), read from its file."""
+    import importlib.util
+    import os
+
+    import numpy
+
+    spec = importlib.util.find_spec("scipy")
+    for where in (spec.submodule_search_locations or []) if spec is not None else []:
+        path = os.path.join(where, "stats", "_sobol_direction_numbers.npz")
+        if os.path.exists(path):
+            with numpy.load(path) as table:
+                return table["poly"].tolist(), table["vinit"]
+    return None  # pragma: no cover
+
+
+def _directions(table: tuple[Any, Any], d: int) -> list[list[int]]:
+    """The direction numbers of the first *d* coordinates, :data:`SOBOL_BITS` bits (SciPy's recurrence:
+    each coordinate's initial numbers from the table, the rest from its primitive polynomial)."""
+    poly, vinit = table
+    bits = SOBOL_BITS
+    rows = [[1] * bits]
+    for k in range(1, d):
+        p = poly[k]
+        m = p.bit_length() - 1
+        v = [int(x) for x in vinit[k, :m]] + [0] * (bits - m)
+        for j in range(m, bits):
+            new = v[j - m]
+            for i in range(m):
+                if (p >> (m - 1 - i)) & 1:
+                    new ^= v[j - i - 1] << (i + 1)
+            v[j] = new
+        rows.append(v)
+    return [[x << (bits - 1 - j) for j, x in enumerate(row)] for row in rows]
 
 
 @functools.lru_cache(maxsize=16)

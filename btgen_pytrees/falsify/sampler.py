@@ -37,15 +37,17 @@ silenced only around the calls into Optuna and the ``cmaes`` library).
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import functools
+import importlib.util
 import math
 import warnings
 from typing import Any, Callable, Iterator, Sequence
 
 from .qmc import Draws, shifted_point
 from .space import Space
-from .surrogate import Model, quadratic_minimum
+from .surrogate import FULL_TERMS, KEEP, Model, one_thread, quadratic_minimum
 
 __all__ = ["Sampler", "METHODS", "SearchUnavailable", "HINT", "available", "resolve_method"]
 
@@ -70,14 +72,10 @@ class SearchUnavailable(RuntimeError):
 
 
 def available() -> bool:
-    """Whether the ``search`` extra's libraries import."""
-    try:
-        import cmaes  # noqa: F401
-        import optuna  # noqa: F401
-        import scipy.stats.qmc  # noqa: F401 - Optuna's QMCSampler needs it
-    except ImportError:
-        return False
-    return True
+    """Whether the ``search`` extra's libraries are installed (found, not imported: each method imports
+    what it uses when it starts - Optuna for ``tpe`` and ``random``, ``cmaes`` for CMA-ES - so a search
+    does not pay for the others' imports)."""
+    return all(importlib.util.find_spec(name) is not None for name in ("cmaes", "optuna", "scipy", "numpy"))
 
 
 def resolve_method(method: str, space: Space) -> str:
@@ -124,9 +122,8 @@ class Sampler:
         if not available():
             raise SearchUnavailable(HINT)
         import numpy
-        import optuna
 
-        self._optuna, self._np = optuna, numpy
+        self._np = numpy
         self.space = space
         self.method = resolve_method(method, space)
         self.seed = seed
@@ -135,10 +132,12 @@ class Sampler:
         self.xs: list[list[float]] = []
         self.ys: list[float | None] = []
         self._unit: list[list[float]] = []  # each run's continuous coordinates (what the models see)
+        self._ranked: list[tuple[float, int]] = []  # (objective, run) of the runs told one, least first
         self._asked: list[tuple[str, Any, list[float]]] = []
         self._names = [d.name for d in space.dimensions]
         self._study: Any = None
         if self.method == "random":
+            optuna = self._optuna
             with _quiet(optuna):
                 self._study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=_legacy_seed(seed)))
         self._stage = "start" if self.start else self.method
@@ -154,10 +153,19 @@ class Sampler:
         self._stale = 0
         self._best = math.inf
         self.restarts = 0
-        self.avoid: Callable[[Sequence[float]], bool] = lambda _x: False
-        """Points the searcher should not start from (e.g. inside a known failure cluster)."""
+        self.avoid: Callable[[int], bool] = lambda _k: False
+        """Runs (by their number here: the order told) the searcher should not start from (e.g. inside a known
+        failure cluster)."""
 
     # -- the interface ------------------------------------------------------------------------------
+
+    @functools.cached_property
+    def _optuna(self) -> Any:
+        """Optuna, imported when a stage asks it (``tpe``, ``random``): its import costs about a third of a second
+        of a process's start-up, which the ``gp`` and ``cmaes`` methods need not pay."""
+        import optuna
+
+        return optuna
 
     @functools.cached_property
     def _rng(self) -> Any:
@@ -183,7 +191,12 @@ class Sampler:
         return self._stage
 
     def ask(self, n: int) -> list[list[float]]:
-        """*n* new unit points (a choice index for each list parameter)."""
+        """*n* new unit points (a choice index for each list parameter); the models' linear algebra on one
+        BLAS thread (:func:`~.surrogate.one_thread`)."""
+        with one_thread():
+            return self._ask(n)
+
+    def _ask(self, n: int) -> list[list[float]]:
         if self._stage == "start" and len(self.xs) + len(self._asked) >= self.start:
             self._switch(self.method)
         points = []
@@ -202,9 +215,9 @@ class Sampler:
                         if first is not None and n - len(points) == 1:  # the batch is the quadratic's point alone
                             self._queue = [[float(u) for u in first]]
                         else:
-                            told = [i for i, y in enumerate(self.ys) if y is not None]
-                            X, y = [self._unit[i] for i in told], [self.ys[i] for i in told]
-                            self._queue = self._model.propose(X, y, n - len(points), first=first)  # type: ignore[arg-type]
+                            kept = self._kept()
+                            X, y = [self._unit[i] for i in kept], [self.ys[i] for i in kept]
+                            self._queue = self._model.propose(X, y, n - len(points), first=first, told=len(self._ranked))  # type: ignore[arg-type]
                     x = self._queue.pop(0)
                     self._asked.append(("model", x, self._with_choices(x)))
                 elif self._stage == "cmaes":
@@ -221,13 +234,20 @@ class Sampler:
         return [list(p) for p in points]
 
     def tell(self, values: Sequence[float | None]) -> None:
-        """The objectives of the points asked (``None``: the run erred), in the order asked."""
+        """The objectives of the points asked (``None``: the run erred), in the order asked (CMA-ES's update
+        on one BLAS thread, as :meth:`ask`)."""
+        with one_thread():
+            self._tell(values)
+
+    def _tell(self, values: Sequence[float | None]) -> None:
         if len(values) != len(self._asked):
             raise ValueError(f"told {len(values)} values for {len(self._asked)} points asked")
-        state = self._optuna.trial.TrialState
         trials = any(kind == "trial" for kind, _, _ in self._asked)
+        state = self._optuna.trial.TrialState if trials else None
         with _quiet(self._optuna) if trials else contextlib.nullcontext():  # only Optuna's tell warns
             for (kind, handle, point), value in zip(self._asked, values):
+                if value is not None:
+                    bisect.insort(self._ranked, (value, len(self.ys)))
                 self.xs.append(point)
                 self.ys.append(value)
                 self._unit.append(self._continuous(point))
@@ -246,11 +266,13 @@ class Sampler:
         """Replace the objectives told so far (e.g. once the criteria's scales are known); the next
         stage learns from these."""
         self.ys = list(values)
+        self._rank()
 
     def restart(self, values: Sequence[float | None] | None = None) -> None:
         """Look elsewhere: CMA-ES restarts from a new point, TPE relearns from *values* (one per run so far)."""
         if values is not None:
             self.ys = list(values)
+            self._rank()
         if self._stage == "cmaes":
             self._new_cma(RESTART_SIGMA)
         elif self._stage == "tpe":
@@ -266,9 +288,9 @@ class Sampler:
     # -- stages -------------------------------------------------------------------------------------
 
     def _switch(self, stage: str) -> None:
-        optuna = self._optuna
         self._stage = stage
         if stage == "tpe":
+            optuna = self._optuna
             with _quiet(optuna):
                 sampler = optuna.samplers.TPESampler(seed=_legacy_seed(self.seed + 1 + self.restarts), n_startup_trials=0, multivariate=True,
                                                      constant_liar=True, warn_independent_sampling=False)  # fmt: skip
@@ -311,11 +333,11 @@ class Sampler:
 
         np = self._np
         dims = len(self.space.continuous)
-        ranked = sorted((y, i) for i, y in enumerate(self.ys) if y is not None)
+        ranked = self._ranked
         x0 = None
         for _, i in ranked:
             x = self.xs[i]
-            if self.avoid(x) or any(self.space.distance(x, s) < 0.1 for s in self._starts):
+            if self.avoid(i) or any(self.space.distance(x, s) < 0.1 for s in self._starts):
                 continue
             x0 = x
             break
@@ -338,8 +360,34 @@ class Sampler:
         """The minimum of a quadratic model of the objective fitted to the best runs so far (as in
         lq-CMA-ES), or None when too few runs fit one (or, with *check*, when it does not rank its own
         runs: the ``gp`` method's model chooses instead); the first point of each batch."""
-        told = [(u, y) for u, x, y in zip(self._unit, self.xs, self.ys) if y is not None and not self.avoid(x)]
-        return quadratic_minimum(told, len(self.space.continuous), self._draws, check=check)
+        d = len(self.space.continuous)
+        full = (d + 1) * (d + 2) // 2
+        most = 3 * (full if full <= FULL_TERMS else 2 * d + 1)  # the most runs the quadratic is fitted to
+        told = []
+        for y, i in self._ranked:  # the best runs first: the walk stops at the most the model takes
+            if not self.avoid(i):
+                told.append((self._unit[i], y))
+                if len(told) == most:
+                    break
+        return quadratic_minimum(told, d, self._draws, check=check)
+
+    def _rank(self) -> None:
+        self._ranked = sorted((y, i) for i, y in enumerate(self.ys) if y is not None)
+
+    def _kept(self) -> list[int]:
+        """The told runs the ``gp`` model is fitted to, in order: all of them up to :data:`~.surrogate.KEEP`,
+        then the best half and the most recent others (:meth:`~.surrogate.Model.propose`'s choice, made from
+        the ranked runs: a batch's bookkeeping does not grow with the runs)."""
+        if len(self._ranked) <= KEEP:
+            return sorted(i for _, i in self._ranked)
+        best = {i for _, i in self._ranked[: KEEP // 2]}
+        recent: list[int] = []
+        i = len(self.ys) - 1
+        while len(recent) < KEEP - len(best):
+            if self.ys[i] is not None and i not in best:
+                recent.append(i)
+            i -= 1
+        return sorted(best.union(recent))
 
     def _cma_tell(self) -> None:
         told = [y for _, y in self._generation if y is not None]

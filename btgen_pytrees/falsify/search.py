@@ -37,7 +37,7 @@ from typing import Any, Callable, Generator, Mapping, Sequence
 from ..load.variations import Value
 from .margins import combine
 from .sampler import Sampler, resolve_method
-from .space import Space
+from .space import Points, Space
 
 __all__ = ["Settings", "Run", "Cluster", "Boundary", "Search", "RADIUS", "FAILING"]
 
@@ -109,12 +109,38 @@ class Boundary:
 
 @dataclass
 class Cluster:
-    """Failures near one another: their runs, the shrunk counterexample and the boundary found."""
+    """Failures near one another: their runs, the shrunk counterexample and the boundary found. A run is a
+    member of one cluster at most; ``span`` is each coordinate's extent over the members and the boundary
+    points (a list parameter: the members' choices), kept as they are added."""
 
     members: list[int]
     shrunk: int
     boundary: list[Boundary] = field(default_factory=list)
     refined: bool = False
+    span: list[Any] = field(default_factory=list)
+
+    def extend(self, unit: Sequence[float], space: Space, member: bool = True) -> None:
+        """Widen :attr:`span` to *unit* (a boundary point, not a *member*, adds no choice)."""
+        if not self.span:
+            self.span = [[u, u] if d.continuous else set() for d, u in zip(space.dimensions, unit)]
+        for d, part, u in zip(space.dimensions, self.span, unit):
+            if d.continuous:
+                part[0], part[1] = min(part[0], u), max(part[1], u)
+            elif member:
+                part.add(int(u))
+
+    def contains(self, unit: Sequence[float], space: Space) -> bool:
+        """Whether *unit* lies in :attr:`span` (the cluster's box as the report draws it, before its
+        widening to one resolution)."""
+        if not self.span:
+            return False
+        for d, part, u in zip(space.dimensions, self.span, unit):
+            if d.continuous:
+                if not part[0] - 1e-12 <= u <= part[1] + 1e-12:
+                    return False
+            elif int(u) not in part:
+                return False
+        return True
 
 
 Evaluate = Callable[[list[dict[str, Value]]], list[dict[str, Any]]]
@@ -156,6 +182,14 @@ class Search:
         self.signum: int | None = None
         """The signal that interrupted the search in its own code (the CLI's SIGINT or SIGTERM), if it says."""
         self.first_failure: int | None = None
+        self._all = Points(space)  # every run's unit point, in order
+        self._failing = Points(space)  # every cluster member's, in the order they joined
+        self._failing_runs: list[int] = []
+        self._cluster_of: dict[int, Cluster] = {}
+        self._near: list[float] = []  # each run's distance to the nearest cluster member
+        self._from_nominal: list[float] = []  # each run's distance to the nominal point
+        self._sampled_runs: list[int] = []  # the runs the sampler asked for, in its order
+        self._seen: dict[tuple[float, ...], int] = {}  # a unit point -> the first run at it
 
     # -- the loop -----------------------------------------------------------------------------------
 
@@ -184,6 +218,7 @@ class Search:
             n = min(self.settings.batch, self.left)
             points = self.sampler.ask(n)
             runs = self._run_points(points, "start" if self.sampler.stage == "start" else "search")
+            self._sampled_runs += [r.index for r in runs]
             self.sampler.tell([self._told(r) for r in runs])
             if self.graded is None and len(self.sampler.xs) >= self.start:
                 self._fix_scales()
@@ -203,6 +238,10 @@ class Search:
             r = Run(len(self.runs), phase, u, v, row)
             r.objective = self._objective(r)
             self.runs.append(r)
+            self._all.add(u)
+            self._near.append(self._failing.nearest(u))
+            self._from_nominal.append(self.space.distance(u, self.nominal))
+            self._seen.setdefault(tuple(u), r.index)
             if r.failed and self.first_failure is None:
                 self.first_failure = len(self.runs)
             out.append(r)
@@ -259,57 +298,74 @@ class Search:
         """What the sampler is told: the objective, pushed up near known failures (so it looks elsewhere)."""
         if run.objective is None:
             return None
-        near = self._nearest(run.unit)
+        near = self._near[run.index]
         if near < RADIUS:
             return max(run.objective, 0.0) + (1.0 - near / RADIUS)
         return run.objective
 
-    def _nearest(self, unit: Sequence[float]) -> float:
-        best = math.inf
-        for c in self.clusters:
-            for i in c.members:
-                best = min(best, self.space.distance(unit, self.runs[i].unit))
-        return best
-
     def _restart(self) -> None:
-        self.sampler.avoid = lambda x: self._nearest(x) < RADIUS
+        self.sampler.avoid = lambda k: self._near[self._sampled_runs[k]] < RADIUS
         self.sampler.restart([self._told(r) for r in self._sampled()])
 
     def _sampled(self) -> list[Run]:
         """The runs the sampler was asked for and told, in order: the start's and the search's (not the
         shrink's and the bound's, which the search asks for itself)."""
-        return [r for r in self.runs if r.phase in _SAMPLED]
+        return [self.runs[i] for i in self._sampled_runs]
 
     # -- clusters, shrink, bound ----------------------------------------------------------------------
 
-    def _place(self, run: Run) -> Cluster:
-        """Put a failing run into the cluster with a member within :data:`RADIUS` (merging the clusters
-        it joins), or into a new one."""
-        near = [c for c in self.clusters
-                if any(self.space.distance(run.unit, self.runs[i].unit) < RADIUS for i in c.members)]  # fmt: skip
-        if not near:
-            cluster = Cluster([run.index], run.index)
-            self.clusters.append(cluster)
-            return cluster
-        into = near[0]
-        into.members.append(run.index)
-        for other in near[1:]:
-            into.members += other.members
-            into.boundary += other.boundary
-            into.refined = into.refined or other.refined
-            if self._closer(other.shrunk, into.shrunk):
-                into.shrunk = other.shrunk
-            self.clusters.remove(other)
-        into.members.sort()
-        self._closest(into)
+    def _place(self, run: Run, into: Cluster | None = None) -> Cluster:
+        """Put a failing run into a cluster: *into* (the cluster being shrunk or bounded: the run lies on
+        one of its lines), else the first with a member within :data:`RADIUS` or whose box (:attr:`Cluster.span`)
+        holds the run, else a new one; every other cluster with a member within :data:`RADIUS` merges into it
+        (the rule is the same for every failure). A run joins one cluster, once."""
+        if run.index in self._cluster_of:
+            return self._cluster_of[run.index]
+        close = self._failing.distances(run.unit) if len(self._failing) else ()
+        near = {id(c): c for j in (j for j, x in enumerate(close) if x < RADIUS) for c in (self._cluster_of[self._failing_runs[j]],)}
+        joined = [c for c in self.clusters if id(c) in near]
+        if into is None:
+            into = joined[0] if joined else next((c for c in self.clusters if c.contains(run.unit, self.space)), None)
+        if into is None:
+            into = Cluster([], run.index)
+            self.clusters.append(into)
+        self._join(into, run)
+        for other in joined:
+            if other is not into:
+                self._merge(into, other)
         return into
 
-    def _closest(self, cluster: Cluster) -> None:
-        """The cluster's counterexample: its failing run closest to the nominal point (the first such)."""
-        cluster.shrunk = min(cluster.members, key=lambda i: (self.space.distance(self.runs[i].unit, self.nominal), i))
+    def _join(self, cluster: Cluster, run: Run) -> None:
+        """*run* becomes a member of *cluster*: the distances to the failures and the counterexample follow."""
+        cluster.members.append(run.index)
+        cluster.extend(run.unit, self.space)
+        self._cluster_of[run.index] = cluster
+        self._failing.add(run.unit)
+        self._failing_runs.append(run.index)
+        self._near = self._all.lower(self._near, run.unit)
+        if (self._from_nominal[run.index], run.index) < (self._from_nominal[cluster.shrunk], cluster.shrunk) or len(cluster.members) == 1:
+            cluster.shrunk = run.index
 
-    def _closer(self, a: int, b: int) -> bool:
-        return self.space.distance(self.runs[a].unit, self.nominal) < self.space.distance(self.runs[b].unit, self.nominal)
+    def _merge(self, into: Cluster, other: Cluster) -> None:
+        for i in other.members:
+            self._cluster_of[i] = into
+        into.members = sorted(into.members + other.members)
+        into.boundary += other.boundary
+        into.refined = into.refined or other.refined
+        for d, a, b in zip(self.space.dimensions, into.span, other.span):
+            if d.continuous:
+                a[0], a[1] = min(a[0], b[0]), max(a[1], b[1])
+            else:
+                a |= b
+        if (self._from_nominal[other.shrunk], other.shrunk) < (self._from_nominal[into.shrunk], into.shrunk):
+            into.shrunk = other.shrunk
+        self.clusters.remove(other)
+
+    def _bounded(self, cluster: Cluster, boundary: Boundary) -> None:
+        """A pass/fail pair found for *cluster*: its midpoint widens the cluster's box."""
+        cluster.boundary.append(boundary)
+        p, f = self.runs[boundary.passing].unit, self.runs[boundary.failing].unit
+        cluster.extend([(x + y) / 2 for x, y in zip(p, f)], self.space, member=False)
 
     def _refine(self, cluster: Cluster) -> None:
         """Shrink, then bound, *cluster*'s counterexample; each round one batch, within the budget."""
@@ -320,17 +376,15 @@ class Search:
                     if len(points) > self.left:
                         self.notes.append(f"the budget ended during the {phase} of cluster {self.clusters.index(cluster) + 1}")
                         cluster.refined = True
-                        self._closest(cluster)
                         return
                     runs = self._run_points(points, phase)
                     for r in runs:
                         if r.failed:
-                            cluster.members.append(r.index)
+                            self._place(r, cluster)
                     points = steps.send(runs)
             except StopIteration:
                 pass
         cluster.refined = True
-        self._closest(cluster)
 
     def _resolved(self, a: Sequence[float], b: Sequence[float]) -> bool:
         return all(abs(x - y) <= d.unit_resolution(x) + 1e-12 for d, x, y in zip(self.space.dimensions, a, b) if d.continuous)
@@ -348,13 +402,12 @@ class Search:
         lo, hi, hi_run = 0.0, 1.0, fail
         first = True
         pass_run: Run | None = None
-        before = next((r for r in self.runs if r.unit == at(0.0)), None)
-        if before is not None:  # the segment's origin ran before (a failing nominal point: every cluster ends there)
+        seen = self._seen.get(tuple(at(0.0)))
+        before = self.runs[seen] if seen is not None else None
+        if before is not None:  # the segment's origin ran before (a failing nominal point: every shrink ends there)
             first = False
-            if before.failed:  # the cluster reaches it: a member, as when it ran it again
+            if before.failed:  # the shrink ends at once; the run stays in its own cluster
                 hi, hi_run = 0.0, before
-                if before.index not in cluster.members:
-                    cluster.members = sorted([*cluster.members, before.index])
             else:
                 pass_run = before
         k = self.settings.batch
@@ -371,9 +424,8 @@ class Search:
             lo, hi = new_lo, new_hi
             if hi == 0.0:
                 break
-        cluster.shrunk = hi_run.index
-        if pass_run is not None:
-            cluster.boundary.append(Boundary(None, pass_run.index, hi_run.index))
+        if pass_run is not None and self._cluster_of.get(hi_run.index) is cluster:
+            self._bounded(cluster, Boundary(None, pass_run.index, hi_run.index))
 
     def _bound(self, cluster: Cluster) -> Generator[list[list[float]], list[Run], None]:
         """From the cluster's deepest failure (smallest objective), both ways along each continuous
@@ -409,4 +461,4 @@ class Search:
                 elif abs(u - entry[0]) < abs(entry[1] - entry[0]):
                     entry[1], entry[3] = u, r
         for (i, _), (f, p, fr, pr) in found.items():
-            cluster.boundary.append(Boundary(self.space.dimensions[i].name, pr.index, fr.index))
+            self._bounded(cluster, Boundary(self.space.dimensions[i].name, pr.index, fr.index))

@@ -24,7 +24,7 @@ from typing import Any, Mapping, Sequence
 
 from ..load.variations import Value, Variations
 
-__all__ = ["Dimension", "Space", "EDGE"]
+__all__ = ["Dimension", "Space", "Points", "EDGE"]
 
 EDGE = NormalDist().cdf(-4.0)
 """A normal prior's searched interval is mu +- 4 sigma: the unit coordinate runs from EDGE to 1 - EDGE."""
@@ -211,3 +211,48 @@ class Space:
 
     def grid_size(self) -> int:
         return math.prod(d.grid_size() for d in self.dimensions)
+
+
+class Points:
+    """Points of the unit box kept in one NumPy array (grown by doubling), for the distance from a point to
+    each of them at once (:meth:`Space.distance`'s: a differing choice counts 1, as a continuous
+    coordinate's difference never exceeds 1). The search keeps its failures and its runs so: the
+    bookkeeping of a run is one pass in C over the points, not one Python call per point."""
+
+    def __init__(self, space: Space):
+        import numpy  # the search extra's: a search is made only where it is installed
+
+        self._np = numpy
+        self._width = len(space.dimensions)
+        self._array = numpy.empty((16, self._width))
+        self._n = 0
+
+    def __len__(self) -> int:
+        return self._n
+
+    def add(self, unit: Sequence[float]) -> None:
+        if self._n == len(self._array):
+            self._array = self._np.concatenate([self._array, self._np.empty_like(self._array)])
+        self._array[self._n] = unit
+        self._n += 1
+
+    def distances(self, unit: Sequence[float | None]) -> Any:
+        """The distance from *unit* to every point, in the order added (a coordinate that is None counts 1)."""
+        np = self._np
+        x = np.array([np.nan if u is None else u for u in unit], dtype=float)
+        sq = self._array[: self._n] - x
+        sq *= sq
+        np.minimum(sq, 1.0, out=sq)  # a differing choice (or None: NaN, minimum's NaN kept) counts 1
+        sq[np.isnan(sq)] = 1.0
+        total = np.add.reduce(sq, axis=1)
+        total /= max(1, self._width)
+        return np.sqrt(total, out=total)
+
+    def nearest(self, unit: Sequence[float | None]) -> float:
+        """The distance to the nearest point (infinite when there is none)."""
+        return float(self.distances(unit).min()) if self._n else math.inf
+
+    def lower(self, values: Sequence[float], unit: Sequence[float | None]) -> list[float]:
+        """*values* (one per point) each lowered to its point's distance to *unit* where that is less."""
+        np = self._np
+        return np.minimum(np.asarray(values, dtype=float), self.distances(unit)).tolist()

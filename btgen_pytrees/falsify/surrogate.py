@@ -42,13 +42,15 @@ is made (an import statement per batch cost more than the batch's arithmetic).
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import heapq
 import math
 from typing import Any, Sequence
 
 from .qmc import Draws
 
-__all__ = ["Model", "quadratic_minimum", "KEEP", "CANDIDATES", "REFIT", "TRUST"]
+__all__ = ["Model", "quadratic_minimum", "KEEP", "CANDIDATES", "REFIT", "TRUST", "FULL_TERMS", "one_thread"]
 
 KEEP = 32
 """Most runs the model is fitted to."""
@@ -57,6 +59,11 @@ CANDIDATES = 256
 TRUST = 0.85
 """The quadratic model's leave-one-out rank correlation with its runs below which its minimum is not
 proposed (lq-CMA-ES's threshold for trusting its model)."""
+FULL_TERMS = 66
+"""Most terms of a full quadratic model (d <= 10 parameters); past it the model has no cross terms. A full
+quadratic in 20 parameters has 231 terms, fitted to up to 693 runs: 20-30 ms per batch (a singular value
+decomposition and a rank check of that size), more than a run of 20 ms; without cross terms, 41 terms and
+at most 123 runs (docs/falsify.md, "Cost")."""
 REFIT = 1.25
 """The scales are fitted at every batch while the model sees every run (up to :data:`KEEP`); after that
 again once the runs told have grown by this factor since their last fit (the factor and the
@@ -82,24 +89,26 @@ class Model:
         self.refits = 0
         """How many fits have started from the previous scales (their factor alternates: 0.6, 1.6, ...)."""
 
-    def propose(self, X: Sequence[Sequence[float]], y: Sequence[float], n: int, first: Any = None) -> list[list[float]]:
+    def propose(self, X: Sequence[Sequence[float]], y: Sequence[float], n: int, first: Any = None,
+                told: int | None = None) -> list[list[float]]:
         """*n* points of the unit box most likely to fail (objective < 0) under the model fitted to the
         runs *X* (unit points, continuous coordinates) with objectives *y*; the most likely first
         (*first*, if given, is taken first whatever its score: the others spread around it).
-        Uniform points when fewer than two runs are known."""
+        Uniform points when fewer than two runs are known. *told*: how many runs were told in all, when
+        *X* is the sampler's choice of them already (the scales' refits follow the runs told)."""
         np, lapack = self._np, self._lapack
         draws = self.draws
+        told = len(y) if told is None else told
+        if len(y) > KEEP:  # the best half and the most recent others, chosen before any array is made (the
+            # runs told grow with the budget; what the model sees does not)
+            best = set(heapq.nsmallest(KEEP // 2, range(len(y)), key=lambda i: (y[i], i)))
+            recent = [i for i in range(len(y) - 1, -1, -1) if i not in best][: KEEP - len(best)]
+            keep = sorted(best | set(recent))
+            X, y = [X[i] for i in keep], [y[i] for i in keep]
         Xa, ya = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
         d = Xa.shape[1] if Xa.ndim == 2 else 0
         if len(ya) < 2 or d == 0:
             return draws.uniform(np.empty((n, d))).tolist()
-        told = len(ya)
-        if len(ya) > KEEP:  # the best half and the most recent others
-            order = ya.argsort(kind="stable")
-            best = set(order[: KEEP // 2].tolist())
-            recent = [i for i in range(len(ya) - 1, -1, -1) if i not in best][: KEEP - len(best)]
-            keep = sorted(best | set(recent))
-            Xa, ya = Xa[keep], ya[keep]
         # the arrays' and ufuncs' own methods below: NumPy's Python-level wrappers (sum, argsort, argmax)
         # cost more than these small arrays' work
         mu = float(np.add.reduce(ya)) / len(ya)
@@ -256,6 +265,28 @@ def _libraries() -> tuple[Any, Any, Any]:
     return numpy, lapack, ndtri
 
 
+@functools.lru_cache(maxsize=1)
+def _controller() -> Any:
+    """threadpoolctl's view of the BLAS libraries loaded (NumPy's and SciPy's, imported first so it sees
+    both); None without threadpoolctl."""
+    _libraries()
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - the search extra brings it
+        return None
+    return ThreadpoolController()
+
+
+def one_thread() -> Any:
+    """A context in which the BLAS libraries run on one thread (threadpoolctl), put back as they were
+    after it. The model's matrices are small: with the library's default threads (one per core) its
+    threads only wait for one another and take the cores from the runs - on the chasing-cars benchmark
+    38 ms of processor time per run where one thread needs 1.7 ms, for the same runs. The runs themselves
+    (and the host's own code) are not limited: only the sampler's calls are made in it."""
+    controller = _controller()
+    return contextlib.nullcontext() if controller is None else controller.limit(limits=1, user_api="blas")
+
+
 @functools.lru_cache(maxsize=8)
 def _halves(d: int) -> Any:
     """A vector of *d* halves (never written): a product with it is half each row's sum."""
@@ -302,21 +333,22 @@ def _pairs(d: int, full: bool) -> tuple[Any, Any]:
 def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, draws: Draws, check: bool = False) -> Any:
     """The minimum of a quadratic model of the objective fitted to the best runs (*told*: continuous unit
     points and objectives), as lq-CMA-ES does: a full quadratic once there are (d + 1)(d + 2)/2 + 2
-    runs, one without cross terms from 2 d + 3; None with fewer. With *check*, also None when the
+    runs (while that is at most :data:`FULL_TERMS` terms: d <= 10), one without cross terms from
+    2 d + 3; None with fewer. With *check*, also None when the
     model does not rank its own runs: each run predicted by the model fitted to the others
     (leave-one-out) must order them with a Kendall rank correlation of at least :data:`TRUST`.
-    Searched over points around the best run and uniform ones."""
+    Searched over points around the best run and uniform ones; in more than 10 parameters (no cross terms
+    ever) each coordinate's minimum exactly (the model is a sum of one parabola per parameter)."""
     np, lapack, ndtri = _libraries()
     full = (d + 1) * (d + 2) // 2
     diagonal = 2 * d + 1
-    if len(told) >= full + 2:
+    if len(told) >= full + 2 and full <= FULL_TERMS:
         terms = full
     elif len(told) >= diagonal + 2:
         terms = diagonal
     else:
         return None
-    ranked = sorted(told, key=lambda p: p[1])
-    best = ranked[: max(terms + 2, min(len(ranked), 3 * terms))]
+    best = heapq.nsmallest(max(terms + 2, min(len(told), 3 * terms)), told, key=lambda p: p[1])  # stable: as sorted
     X = np.array([x for x, _ in best])
     Y = np.array([y for _, y in best])
 
@@ -326,17 +358,26 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, dra
         return np.concatenate([np.ones((len(P), 1)), P, P[:, rows] * P[:, cols]], axis=1)
 
     F = features(X)
-    U, sv, Vt, _ = lapack.dgesdd(F, compute_uv=1, full_matrices=0)  # least squares, and each run's leverage (LAPACK's, as numpy.linalg.svd)
-    rank = sv > sv[0] * max(F.shape) * _EPS  # numpy's lstsq cut-off
-    Uk = U[:, rank]
-    coef = Vt[rank].T @ ((Uk.T @ Y) / sv[rank])
-    if check:
+    solved = _normal_equations(np, lapack, F, Y) if full > FULL_TERMS else None
+    if solved is not None:
+        coef, leverage = solved
+    else:
+        U, sv, Vt, _ = lapack.dgesdd(F, compute_uv=1, full_matrices=0)  # least squares, and each run's leverage (LAPACK's, as numpy.linalg.svd)
+        rank = sv > sv[0] * max(F.shape) * _EPS  # numpy's lstsq cut-off
+        Uk = U[:, rank]
+        coef = Vt[rank].T @ ((Uk.T @ Y) / sv[rank])
         leverage = (Uk * Uk).sum(axis=1)
+    if check:
         if leverage.max() > 1.0 - 1e-9:  # a run only the model itself fits: it cannot be checked
             return None
         loo = Y - (Y - F @ coef) / (1.0 - leverage)  # each run as the model fitted without it predicts it
         if _kendall(np, loo, Y) < TRUST:
             return None
+    if full > FULL_TERMS:  # never a full model: the minimum without cross terms is each coordinate's, exactly
+        a, b = coef[1 : d + 1], coef[d + 1 :]
+        ends = np.where(a + b < 0.0, 1.0, 0.0)  # a straight or downward parabola: its lower end
+        inner = np.clip(-a / np.where(b > 0.0, 2.0 * b, 1.0), 0.0, 1.0)
+        return np.where(b > 0.0, inner, ends)
     candidates = draws.uniform(np.empty((1024, d)))  # Sobol points under one shift: the first half go around
     around = candidates[:512]  # the best run (normal(0, 0.1), clipped to the box, in place), the rest are uniform
     ndtri(around, out=around)
@@ -346,6 +387,19 @@ def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, dra
     np.minimum(around, 1.0, out=around)
     values = features(candidates) @ coef
     return candidates[int(values.argmin())]  # inside the box already
+
+
+def _normal_equations(np: Any, lapack: Any, F: Any, Y: Any) -> tuple[Any, Any] | None:
+    """Least squares by the normal equations (the Cholesky factor of F'F: a twentieth of the singular value
+    decomposition's time on 123 runs and 41 terms) and each run's leverage; None when F'F is not positive
+    definite (runs on a lower-dimensional set: the decomposition's rank cut-off decides)."""
+    G = F.T @ F
+    L, info = lapack.dpotrf(G, lower=1, clean=1)
+    if info != 0 or float(L.diagonal().min()) <= math.sqrt(float(G.diagonal().max())) * 1e-6:
+        return None
+    Z = lapack.dtrtrs(L, F.T, lower=1)[0]  # L^-1 F'
+    coef = lapack.dtrtrs(L, Z @ Y, lower=1, trans=1)[0]
+    return coef, np.add.reduce(Z * Z, axis=0)
 
 
 def _kendall(np: Any, a: Any, b: Any) -> float:

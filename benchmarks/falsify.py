@@ -26,7 +26,7 @@ forks processes for them) and coarse outside, where it must fail nowhere.
 For each case and method, ``--seeds`` searches (default 20; seeds from ``--first-seed``, default 0) with ``--budget``
 runs (default 200), ``--batch`` (default 1: the runs run in this process, one
 after the other, and ``falsify``'s batch is the number of runs that can run at
-once) and ``stop: first``: the median runs to the first failure, the seeds that found one, the
+once) and ``stop: cluster``: the median runs to the first failure, the seeds that found one, the
 search's own time (sampler, model, bookkeeping: everything but the runs) over
 the runs' time, wall clock and (in brackets) this process's CPU time, the steadier
 figure on a loaded machine - after one untimed search has imported the optimiser
@@ -315,11 +315,11 @@ def search_case(name: str, method: str, seeds: int, budget: int, batch: int = 1,
     done: list[Search] = []
     groups = groups_of(validate(sweep.document(sweep.defaults), sweep.source, default_registry()))
     warm, _ = _evaluator(sweep)  # imports (the optimiser libraries, numpy, scipy) are a process's, paid once: not timed
-    Search(space, sweep.defaults, Settings(method=method, seed=10**6, budget=2 * batch, batch=batch, stop="first"), warm, groups).run()
+    Search(space, sweep.defaults, Settings(method=method, seed=10**6, budget=2 * batch, batch=batch, stop="cluster"), warm, groups).run()
     for seed in range(first_seed, first_seed + seeds):
         evaluate, spent = _evaluator(sweep)
         t0, c0 = time.perf_counter(), time.process_time()
-        settings = Settings(method=method, seed=seed, budget=budget, stop="first", batch=batch, start=start)
+        settings = Settings(method=method, seed=seed, budget=budget, stop="cluster", batch=batch, start=start)
         search = Search(space, sweep.defaults, settings, evaluate, groups).run()
         total, cpu = time.perf_counter() - t0, time.process_time() - c0
         own += total - spent[0]

@@ -52,7 +52,9 @@ def add_parser(sub: Any, parents: Parents) -> None:
     parser.add_argument("--budget", type=int, metavar="N", help="most runs (default: search.budget, else 200)")
     parser.add_argument("--seed", type=int, metavar="S", help="seed of the search (default: search.seed, else 0)")
     parser.add_argument("--batch", type=int, metavar="N", help="runs asked and run together (default: search.batch, else the runs that can run at once: --jobs, or the Dask cluster's workers)")
-    parser.add_argument("--stop", choices=("first", "all"), help="first: stop after the first failure's cluster is shrunk and bounded; all (default): search to the end of the budget")
+    parser.add_argument("--stop", choices=("failure", "cluster", "all", "first"),
+                        help="failure: stop at the first failing run; cluster: stop once the first failure's cluster is shrunk and bounded "
+                             "(first: its old name); all (default): search to the end of the budget")  # fmt: skip
     parser.add_argument("--json", metavar="REPORT", help="write the search as JSON (schemas/falsify.schema.json)")
     parser.add_argument("--plot", metavar="PATH", help="draw convergence and the parameter space coloured by margin (.svg, .png or .html; needs the 'plot' extra)")
     add_executor_options(parser)

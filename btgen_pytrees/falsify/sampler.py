@@ -56,6 +56,12 @@ HINT = "falsify needs the 'search' extra (optuna, cmaes, scipy): pip install -e 
 
 SIGMA0 = 0.2
 """CMA-ES's first step size, as a fraction of the unit box."""
+STALL = 20
+"""Runs told without a lower objective (plus 2 per continuous parameter) after which the ``gp`` model counts
+as stalled (:attr:`Sampler.stalled`)."""
+GAIN = 0.01
+"""The least fall of the lowest objective that counts as progress (objectives are scaled: 1 is a criterion's
+spread over the start), so a model creeping down a bowl whose bottom passes counts as stalled."""
 RESTART_SIGMA = 0.3
 """The step size of a restart (a new region: wider)."""
 
@@ -133,6 +139,10 @@ class Sampler:
         self.ys: list[float | None] = []
         self._unit: list[list[float]] = []  # each run's continuous coordinates (what the models see)
         self._ranked: list[tuple[float, int]] = []  # (objective, run) of the runs told one, least first
+        self._lowest = math.inf  # the lowest objective told since the last restart, and the runs told since
+        self._since = 0
+        self._filling = 0  # space-filling points left in this batch (a stalled model's share)
+        self._turn = 0
         self._asked: list[tuple[str, Any, list[float]]] = []
         self._names = [d.name for d in space.dimensions]
         self._study: Any = None
@@ -209,7 +219,18 @@ class Sampler:
                         self._asked.append(("sobol", None, self._sobol_point()))
                     else:
                         self._asked.append(("model", x, self._with_choices(x)))
+                elif self._stage == "gp" and self._filling > 0:  # stalled: a share of the batch space-filling
+                    self._filling -= 1
+                    self._asked.append(("sobol", None, self._sobol_point()))
                 elif self._stage == "gp":
+                    if not self._asked and self.stalled:  # half of each batch (every other run at batch 1) space-filling
+                        self._turn += 1
+                        self._filling = (n - len(points) + self._turn % 2) // 2
+                        if self._filling > 0:
+                            self._filling -= 1
+                            self._asked.append(("sobol", None, self._sobol_point()))
+                            points.append(self._asked[-1][2])
+                            continue
                     if not self._asked or not self._queue:  # a batch's points at once (the quadratic's first)
                         first = None if self._asked else self._model_point(check=True)
                         if first is not None and n - len(points) == 1:  # the batch is the quadratic's point alone
@@ -248,6 +269,10 @@ class Sampler:
             for (kind, handle, point), value in zip(self._asked, values):
                 if value is not None:
                     bisect.insort(self._ranked, (value, len(self.ys)))
+                    if value < self._lowest - GAIN:
+                        self._lowest, self._since = value, 0
+                    else:
+                        self._since += 1
                 self.xs.append(point)
                 self.ys.append(value)
                 self._unit.append(self._continuous(point))
@@ -262,17 +287,28 @@ class Sampler:
         if self._stage == "cmaes" and len(self._generation) >= self._cma.population_size:
             self._cma_tell()
 
+    @property
+    def stalled(self) -> bool:
+        """Whether the ``gp`` model has stopped finding lower objectives: :data:`STALL` runs (plus 2 per
+        parameter) told without a lower one. Then half of each batch - every other run at batch 1 - is the
+        Sobol sequence's, until a run beats the lowest: a model that settles above zero (a bowl whose bottom
+        passes, far from a small failing region) would never look elsewhere, where uniform random
+        sampling finds the region at its rate; with the share it finds it at half that rate at worst."""
+        return self._since >= STALL + 2 * len(self.space.continuous)
+
     def rescore(self, values: Sequence[float | None]) -> None:
         """Replace the objectives told so far (e.g. once the criteria's scales are known); the next
         stage learns from these."""
         self.ys = list(values)
         self._rank()
+        self._lowest = self._ranked[0][0] if self._ranked else math.inf  # the same runs, told in new units
 
     def restart(self, values: Sequence[float | None] | None = None) -> None:
         """Look elsewhere: CMA-ES restarts from a new point, TPE relearns from *values* (one per run so far)."""
         if values is not None:
             self.ys = list(values)
             self._rank()
+        self._lowest, self._since = math.inf, 0  # a new region: the stall is counted anew
         if self._stage == "cmaes":
             self._new_cma(RESTART_SIGMA)
         elif self._stage == "tpe":

@@ -22,7 +22,8 @@ A run *fails* when its verdict is not ``pass`` (``fail``, ``timeout`` or
    known failure are told a positive objective, and the sampler restarts); a
    failure farther than :data:`RADIUS` from every known one is a new cluster,
    shrunk and bounded in turn - until the budget ends, or after the first
-   cluster with ``stop: first``.
+   cluster with ``stop: cluster`` (its old name ``first`` still reads), or at the
+   first failing run with ``stop: failure`` (that run's batch completes; nothing is shrunk or bounded).
 
 Each bisection round runs a batch: ``batch`` points spread inside the interval
 (each parameter's interval, in the bound), so a round narrows it by ``batch + 1``.
@@ -62,6 +63,10 @@ class Settings:
     stop: str = "all"
     start: int | None = None
     scale: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.stop == "first":  # the old name of "cluster", still read (docs/falsify.md)
+            object.__setattr__(self, "stop", "cluster")
 
     def start_runs(self, space: Space, method: str | None = None) -> int:
         """Space-filling runs first: ``start``, else (within a quarter of the budget) 1 per parameter and
@@ -211,7 +216,7 @@ class Search:
             pending = next((c for c in self.clusters if not c.refined), None)
             if pending is not None:
                 self._refine(pending)
-                if self.settings.stop == "first":
+                if self.settings.stop == "cluster":
                     return
                 self._restart()
                 continue
@@ -225,6 +230,9 @@ class Search:
             for r in runs:
                 if r.failed:
                     self._place(r)
+            if self.settings.stop == "failure" and any(r.failed for r in runs):
+                self.notes.append("stopped at the first failing run (stop: failure): not shrunk, not bounded")
+                return
 
     def _run_points(self, points: Sequence[Sequence[float]], phase: str) -> list[Run]:
         units, values = [], []

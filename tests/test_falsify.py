@@ -755,7 +755,7 @@ def test_boundary_points_lie_within_the_resolution_of_the_true_boundary(tmp_path
         return (((p["a"] - nominal["a"]) / 10) ** 2 + ((p["b"] - nominal["b"]) / 5) ** 2) ** 0.5
 
     assert dist(shrunk["parameters"]) == pytest.approx(min(dist(r["parameters"]) for r in fails), abs=1e-9)
-    assert report["stop"] == "first" and report["runs_done"] < 120
+    assert report["stop"] == "cluster" and report["runs_done"] < 120  # --stop first: the old name of cluster
 
 
 def test_counterexamples_reproduce_their_failure_and_margins_when_run_alone(tmp_path: pathlib.Path) -> None:

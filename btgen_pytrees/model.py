@@ -218,11 +218,16 @@ class SystemSpec:
         config: the configuration file, resolved relative to the case file
             (``None`` when the type needs none)
         options: simulator options, each checked against the type's allow-list
+        road: an OpenDRIVE road network (``.xodr``), resolved relative to the case file, that the
+            type builds its scenario on (``sumo``: docs/opendrive.md), or ``None``
+        entities: the case's ``entities`` (what stands on that road), as JSON text, or ``None``
     """
 
     type: str = "simulated"
     config: str | None = None
     options: tuple[str, ...] = ()
+    road: str | None = None
+    entities: str | None = None
 
 
 @dataclass(frozen=True, eq=False)

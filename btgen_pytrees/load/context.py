@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import json
 import itertools
 import math
 import os
+from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, Iterable, Mapping
 
@@ -34,7 +36,7 @@ class Checker:
         self.source = source
         own = spec_of(data.get("system"), source)
         if system is not None and not system.options and system.type == own.type:
-            system = SystemSpec(system.type, system.config, own.options)  # options written for this type still apply
+            system = replace(system, options=own.options)  # options written for this type still apply
         self.spec = system if system is not None else own
         self.owned: frozenset[str] = frozenset()  # signals the system owns (read-only for the test)
         self.writers: Mapping[str, str] = {}
@@ -278,11 +280,15 @@ def spec_of(raw: Mapping[str, Any] | None, source: str) -> SystemSpec:
     """The case's ``system`` key as a :class:`SystemSpec`, ``config`` resolved relative to the case file."""
     if raw is None:
         return SystemSpec()
-    config = raw.get("config")
+    base = os.path.dirname(os.path.abspath(source)) if source != "<dict>" else os.getcwd()
+    config, road = raw.get("config"), raw.get("road")
     if config is not None:
-        base = os.path.dirname(os.path.abspath(source)) if source != "<dict>" else os.getcwd()
         config = os.path.normpath(os.path.join(base, config))
-    return SystemSpec(raw["type"], config, tuple(raw.get("options", ())))
+    if isinstance(road, str):
+        road = os.path.normpath(os.path.join(base, road))
+    entities = raw.get("entities")
+    text = json.dumps(entities, separators=(",", ":"), allow_nan=False) if isinstance(entities, dict) else None
+    return SystemSpec(raw["type"], config, tuple(raw.get("options", ())), road if isinstance(road, str) else None, text)
 
 
 def _is_number(text: str) -> bool:

@@ -14,6 +14,7 @@ run without it ends with a message saying how to install it. See docs/sumo.md.
 from __future__ import annotations
 
 import importlib.util
+import json
 import re
 import sys
 from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping
@@ -23,8 +24,10 @@ from ...errors import Problem
 from ...expressions import RESERVED
 from ...model import DEFAULT_TICK
 from ...text import did_you_mean
+from .opendrive import OpenDriveError
+from .roads import RoadCase, road_case
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
-from .system import ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, keep_simulations, kept_simulation, release_simulations, reuse_for, reuse_simulations, tick_problem
+from .system import ATTRIBUTES, PAIR_ATTRIBUTES, ROAD_ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, keep_simulations, kept_simulation, release_simulations, reuse_for, reuse_simulations, tick_problem
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...model import TestCase
@@ -73,10 +76,25 @@ class SumoType:
         tick = tick_problem(case_data.get("tick", DEFAULT_TICK))
         if tick is not None:
             problems.append(Problem(("tick",), tick, "system"))
-        if not spec.config:
-            problems.append(Problem(("system",), "a 'sumo' system needs 'config': a .sumocfg file next to the case", "system"))
+        road: RoadCase | None = None
+        if spec.road is not None:
+            if spec.config:
+                problems.append(Problem(("system", "road"), "give either 'config' (a .sumocfg) or 'road' (an OpenDRIVE "
+                                        "file with 'entities'), not both", "system"))  # fmt: skip
+                return SystemInfo((), tuple(problems))
+            road, problem = _road_case(spec)
+            if problem is not None:
+                problems.append(problem)
+                return SystemInfo((), tuple(problems))
+            assert road is not None
+            config = road.config
+        elif not spec.config:
+            problems.append(Problem(("system",), "a 'sumo' system needs 'config': a .sumocfg file next to the case "
+                                    "(or 'road' and 'entities': docs/opendrive.md)", "system"))  # fmt: skip
             return SystemInfo((), tuple(problems))
-        scenario = read_scenario(spec.config)
+        else:
+            config = spec.config
+        scenario = read_scenario(config)
         if scenario.problems:
             problems += [Problem(("system", "config"), p, "system") for p in scenario.problems]
             return SystemInfo((), tuple(problems))
@@ -91,6 +109,10 @@ class SumoType:
                                         f"unknown vehicle {vid!r}{did_you_mean(vid, known)}", "system"))  # fmt: skip
         vehicles = signal_vehicles([*scenario.vehicles, *spawned])
         signals = [f"{v}.{a}" for v in vehicles for a in ATTRIBUTES] + list(SIM_SIGNALS)
+        if road is not None:
+            named = [v for v in vehicles if v in road.entities]
+            signals += [f"{v}.{a}" for v in named for a in ROAD_ATTRIBUTES]
+            signals += [f"{a}.{b}.{x}" for a in named for b in named if a != b for x in PAIR_ATTRIBUTES]
         writers = {f"{v}.{a}": w for v in vehicles for a, w in (("speed", "sumo.speed"), ("lane", "sumo.lane"))}
         return SystemInfo(tuple(signals), tuple(problems), {"scenario": scenario}, writers=writers)
 
@@ -136,22 +158,46 @@ class SumoType:
 
     def files(self, spec: SystemSpec) -> tuple[str, ...]:
         """The files a run of *spec* reads (the ``.sumocfg`` and every file it names): what a
-        cluster ships to its workers. Empty when the configuration cannot be used (validation says why)."""
+        cluster ships to its workers. Empty when the configuration cannot be used (validation says why),
+        and for a case on an OpenDRIVE road (its files are made where it runs, from its ``road``)."""
         if not spec.config:
             return ()
         scenario = read_scenario(spec.config)
         return () if scenario.problems else scenario.files
 
     def create(self, spec: SystemSpec, case: "TestCase") -> SumoSystem:
-        if not spec.config:
+        road: RoadCase | None = None
+        if spec.road is not None:
+            road, problem = _road_case(spec)
+            if problem is not None or road is None:
+                raise SystemFailure(f"{spec.road}: {problem.message if problem else 'cannot be used'}")
+            config = road.config
+        elif not spec.config:
             raise SystemFailure("a 'sumo' system needs 'config': a .sumocfg file")
-        scenario = read_scenario(spec.config)
+        else:
+            config = spec.config
+        scenario = read_scenario(config)
         if scenario.problems:
             raise SystemFailure(f"{spec.config}: {scenario.problems[0]}")
         options = {**scenario.options, **parse_options(list(spec.options))[0]}
         spawned = [e.params["vehicle"] for e in case.entries if e.action == "sumo.spawn"]
         tracked = signal_vehicles([*scenario.vehicles, *spawned])
-        return SumoSystem(scenario, options, case.tick, tracked, spawns=bool(spawned))
+        return SumoSystem(scenario, options, case.tick, tracked, spawns=bool(spawned), road=road)
+
+
+def _road_case(spec: SystemSpec) -> tuple[RoadCase | None, Problem | None]:
+    """The scenario made from the case's ``road`` and ``entities``, or the problem with it (JSON path and message)."""
+    assert spec.road is not None
+    if spec.entities is None:
+        return None, Problem(("system",), "a 'sumo' system on a 'road' needs 'entities' (docs/opendrive.md)", "system")
+    try:
+        return road_case(spec.road, json.loads(spec.entities)), None
+    except OpenDriveError as exc:
+        message = str(exc)
+        if message.startswith("/system/"):
+            head, _, rest = message.partition(": ")
+            return None, Problem(tuple(head.strip("/").split("/")), rest, "system")
+        return None, Problem(("system", "road"), message, "system")
 
 
 SUMO = SumoType()

@@ -57,18 +57,25 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping
 from py_trees.blackboard import Blackboard
 
 from ...contracts.system import SystemFailure
+from .opendrive import Pose
+from .roads import RoadCase
 from .scenario import Scenario
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...contracts.environment import Environment
 
-__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "SIM_SIGNALS", "DEFAULTS", "libsumo_module", "INSTALL_HINT", "tick_problem",
+__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "ROAD_ATTRIBUTES", "PAIR_ATTRIBUTES", "SIM_SIGNALS", "DEFAULTS", "libsumo_module", "INSTALL_HINT", "tick_problem",
            "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations",
            "release_simulations"]
 
 INSTALL_HINT = "pip install -e '.[sumo]'"
 ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", "ttc", "present", "collided")
 """The signals of each vehicle, ``<vehicle>.<attribute>``."""
+ROAD_ATTRIBUTES = ("ref_x", "ref_y", "heading", "road", "lane_id", "s", "t", "offset", "still", "end_of_road")
+"""The further signals of each entity of a case on an OpenDRIVE road, ``<entity>.<attribute>`` (docs/opendrive.md)."""
+PAIR_ATTRIBUTES = ("distance", "distance_free", "dx", "dy", "dx_free", "dy_free", "ds", "dt", "ds_free", "dt_free",
+                   "dlane", "headway", "headway_free", "ttc", "ttc_free")  # fmt: skip
+"""The signals of each ordered pair of entities A, B on an OpenDRIVE road, ``A.B.<attribute>`` (docs/opendrive.md)."""
 SIM_SIGNALS = ("sim.collisions", "sim.vehicles")
 DEFAULTS = {"collision.action": "warn"}
 """SUMO options a run sets where neither the case's ``options`` nor its ``.sumocfg`` do. SUMO's own
@@ -85,6 +92,9 @@ _INF = math.inf
 # libsumo variable ids (traci.constants)
 _SPEED, _POSITION, _LANE_INDEX, _LEADER, _ACCEL, _DISTANCE, _LATERAL = 0x40, 0x42, 0x52, 0x68, 0x72, 0x84, 0xB8
 _ANGLE = 0x43
+_LANE_ID, _LANE_POSITION = 0x51, 0x56
+_ROAD = (_SPEED, _POSITION, _ANGLE, _LANE_ID, _LANE_POSITION, _LATERAL)
+"""What an entity on an OpenDRIVE road is read for when a road signal of it (or of a pair with it) is wanted."""
 _VARIABLES = (_SPEED, _ACCEL, _POSITION, _LANE_INDEX, _LATERAL, _DISTANCE, _ANGLE)
 _PLACE = (_POSITION, _ANGLE)  # every other vehicle: where it is, for the replay page's scene
 _CORE = (_SPEED, _POSITION, _LANE_INDEX)
@@ -268,10 +278,18 @@ class SumoSystem:
         tick: the step length, the case's ``tick``
         tracked: vehicles that get signals
         spawns: whether the case adds vehicles (then an empty network does not end the run)
+        road: the case's OpenDRIVE road and entities (docs/opendrive.md), or None
     """
 
     def __init__(self, scenario: Scenario, options: Mapping[str, str], tick: float, tracked: Iterable[str],
-                 spawns: bool = False):  # fmt: skip
+                 spawns: bool = False, road: RoadCase | None = None):  # fmt: skip
+        self.road = road
+        self.exact: frozenset[str] = frozenset(n for n, e in road.entities.items() if not e.controller) if road else frozenset()
+        """Entities driven storyboard-exactly: no car-following, no lane changes of their own (speed and lane-change mode 0)."""
+        self.poses: dict[str, Pose] = {}  # entity -> its pose on the road at the last step read (road cases)
+        self._since: dict[str, float] = {}  # entity -> time since which it stands still
+        self._road_keys: list[tuple[str, dict[str, str]]] = []
+        self._pair_keys: list[tuple[str, str, dict[str, str]]] = []
         self.scenario = scenario
         self.options = dict(options)
         self.tick_length = float(tick)
@@ -435,6 +453,10 @@ class SumoSystem:
                 self.seen.add(vid)
             elif self._scene:
                 vehicle.subscribe(vid, _PLACE)
+            if vid in self.exact:  # storyboard-exact: it keeps its speed and lane until an action changes them
+                vehicle.setSpeedMode(vid, 0)
+                vehicle.setLaneChangeMode(vid, 0)
+                vehicle.setSpeed(vid, vehicle.getSpeed(vid))
             self.sizes[vid] = (vehicle.getLength(vid), vehicle.getWidth(vid))
         self.results = vehicle.getAllSubscriptionResults() if self.sizes else {}
         self.vehicle_count = vehicle.getIDCount()
@@ -499,6 +521,8 @@ class SumoSystem:
                     storage[gap_key] = gap
                 if ttc_key is not None:
                     storage[ttc_key] = ttc
+        if self._road_keys or self._pair_keys:
+            self._publish_road(storage)
         if self._sim_collisions:
             storage[prefix + "sim.collisions"] = self.collisions
         if self._sim_vehicles:
@@ -535,6 +559,90 @@ class SumoSystem:
                 self._subscribe[vid] = (variables, keys["gap"] is not None or keys["ttc"] is not None)
         self._sim_collisions = wanted is None or "sim.collisions" in wanted
         self._sim_vehicles = wanted is None or "sim.vehicles" in wanted
+        self._road_keys, self._pair_keys = [], []
+        if self.road is not None:
+            named = [v for v in self.tracked if v in self.road.entities]
+            posed: set[str] = set()
+            for vid in named:
+                keys = {a: k for a in ROAD_ATTRIBUTES if (k := key(f"{vid}.{a}")) is not None}
+                self._road_keys.append((vid, keys))
+                if keys:
+                    posed.add(vid)
+            for a in named:
+                for b in named:
+                    keys = {x: k for x in PAIR_ATTRIBUTES if a != b and (k := key(f"{a}.{b}.{x}")) is not None}
+                    if keys:
+                        self._pair_keys.append((a, b, keys))
+                        posed.update((a, b))
+            self._road_keys = [(vid, keys) for vid, keys in self._road_keys if vid in posed]
+            for vid in named:  # (the action leaves ask where entities are in OpenDRIVE terms, too)
+                variables, leader = self._subscribe[vid]
+                self._subscribe[vid] = (tuple(dict.fromkeys(variables + _ROAD)), leader)
+
+    # -- an OpenDRIVE road's signals (docs/opendrive.md) --------------------------------
+    def pose(self, vid: str) -> Pose | None:
+        """Where entity *vid*'s reference point is now, in OpenDRIVE terms (None when it is not on the road)."""
+        r = self.results.get(vid)
+        if r is None or self.road is None or _LANE_ID not in r:
+            return None
+        entity = self.road.entities[vid]
+        lane = self.road.net.lanes.get(r[_LANE_ID])
+        h = math.radians(90.0 - r[_ANGLE])
+        cy = entity.center[1]
+        if lane is not None and lane.length > 0 and r[_LANE_POSITION] * lane.shape_length() / lane.length >= entity.front:
+            px, py, lh = lane.point(r[_LANE_POSITION] * lane.shape_length() / lane.length - entity.front)
+            side = r[_LATERAL] - cy
+            x, y = px - side * math.sin(lh), py + side * math.cos(lh)
+        else:  # on a junction, or the vehicle reaches back over its lane's start: along its own axis
+            fx, fy = r[_POSITION]
+            x = fx - entity.front * math.cos(h) + cy * math.sin(h)
+            y = fy - entity.front * math.sin(h) - cy * math.cos(h)
+        last = self.poses.get(vid)
+        found = self.road.network.locate(x, y, (last.road, last.s) if last is not None else None)
+        if found is None:
+            self.poses.pop(vid, None)
+            return None
+        h = math.atan2(math.sin(h), math.cos(h))
+        pose = Pose(x, y, h, found.road, found.lane, found.s, found.t, found.offset)
+        self.poses[vid] = pose
+        return pose
+
+    def _publish_road(self, storage: Any) -> None:
+        assert self.road is not None
+        results, now = self.results, self.time
+        poses: dict[str, Pose | None] = {}
+        for vid, keys in self._road_keys:
+            pose = poses[vid] = self.pose(vid)
+            r = results.get(vid)
+            if pose is None or r is None:
+                for k in keys.values():
+                    storage.pop(k, None)
+                self._since.pop(vid, None)
+                continue
+            speed = r[_SPEED]
+            if abs(speed) > 1e-9:
+                self._since.pop(vid, None)
+            since = self._since.setdefault(vid, now)
+            lane = self.road.net.lanes.get(r[_LANE_ID])
+            route = self.road.routes.get(vid, ())
+            end = (lane is not None and bool(route) and lane.edge == route[-1]
+                   and lane.length - r[_LANE_POSITION] <= max(speed * self.tick_length, 1e-3))  # fmt: skip
+            values = {"ref_x": pose.x, "ref_y": pose.y, "heading": pose.h, "road": _road_number(pose.road, self.road),
+                      "lane_id": pose.lane, "s": pose.s, "t": pose.t, "offset": pose.offset, "still": now - since,
+                      "end_of_road": end}  # fmt: skip
+            for a, k in keys.items():
+                storage[k] = values[a]
+        for a, b, keys in self._pair_keys:
+            pa = poses[a] if a in poses else poses.setdefault(a, self.pose(a))
+            pb = poses[b] if b in poses else poses.setdefault(b, self.pose(b))
+            ra, rb = results.get(a), results.get(b)
+            if pa is None or pb is None or ra is None or rb is None:
+                for k in keys.values():
+                    storage.pop(k, None)
+                continue
+            values = _pair(self.road, a, b, pa, pb, ra[_SPEED], rb[_SPEED])
+            for x, k in keys.items():
+                storage[k] = values[x]
 
     # -- the scene (the replay page's bird's-eye view; docs/systems.md) ---------
     def scene_map(self) -> dict[str, Any]:
@@ -643,6 +751,72 @@ class SumoSystem:
         finally:
             if self.timer:
                 self.timing["adapter"] += self.timer() - t0
+
+
+def _road_number(road: str, case: RoadCase) -> float:
+    """A road id as a signal's value: the number it is, else its place in the file (docs/opendrive.md)."""
+    try:
+        return float(road) if road.strip().lstrip("-").replace(".", "", 1).isdigit() else float(list(case.network.roads).index(road))
+    except ValueError:
+        return -1.0
+
+
+def _extent(length: float, center: float) -> tuple[float, float]:
+    """The box's reach behind (negative) and ahead of its reference point along its axis."""
+    return center - length / 2, center + length / 2
+
+
+def _gap(low_a: float, high_a: float, low_b: float, high_b: float) -> float:
+    """Signed free distance of interval b from interval a: + ahead, - behind, 0 overlapping."""
+    if low_b > high_a:
+        return low_b - high_a
+    if high_b < low_a:
+        return high_b - low_a
+    return 0.0
+
+
+def _pair(case: RoadCase, a: str, b: str, pa: Pose, pb: Pose, va: float, vb: float) -> dict[str, float]:
+    """The signals of the pair (A, B): B seen from A (docs/opendrive.md "Two entities")."""
+    ea, eb = case.entities[a], case.entities[b]
+    dxw, dyw = pb.x - pa.x, pb.y - pa.y
+    c, s = math.cos(pa.h), math.sin(pa.h)
+    dx, dy = dxw * c + dyw * s, -dxw * s + dyw * c
+    rel = pb.h - pa.h
+    cr, sr = abs(math.cos(rel)), abs(math.sin(rel))
+    half_len_b = (eb.length * cr + eb.width * sr) / 2  # B's box seen along A's axes
+    half_wid_b = (eb.length * sr + eb.width * cr) / 2
+    bx = dx + eb.center[0] * math.cos(rel) - eb.center[1] * math.sin(rel)
+    by = dy + eb.center[0] * math.sin(rel) + eb.center[1] * math.cos(rel)
+    low_a, high_a = _extent(ea.length, ea.center[0])
+    dx_free = _gap(low_a, high_a, bx - half_len_b, bx + half_len_b)
+    dy_free = _gap(ea.center[1] - ea.width / 2, ea.center[1] + ea.width / 2, by - half_wid_b, by + half_wid_b)
+    road_a = case.network.roads.get(pa.road)
+    sign = 1.0 if road_a is None or road_a.forward(pa.lane) else -1.0
+    if pa.road == pb.road:
+        ds, dt = sign * (pb.s - pa.s), sign * (pb.t - pa.t)
+        dlane = float(_lanes_between(pa.lane, pb.lane)) * sign
+    else:
+        ds, dt, dlane = dx, dy, math.nan
+    same_way = math.cos(rel) >= 0
+    b_low, b_high = (-eb.rear, eb.front) if same_way else (-eb.front, eb.rear)
+    ds_free = _gap(-ea.rear, ea.front, ds + b_low, ds + b_high)
+    dt_free = _gap(-ea.width / 2, ea.width / 2, dt - eb.width / 2, dt + eb.width / 2)
+    closing = va - vb if same_way else va + vb  # along the road, as the speeds are
+    return {
+        "distance": math.hypot(dxw, dyw), "distance_free": math.hypot(dx_free, dy_free), "dx": dx, "dy": dy,
+        "dx_free": dx_free, "dy_free": dy_free, "ds": ds, "dt": dt, "ds_free": ds_free, "dt_free": dt_free,
+        "dlane": dlane,
+        "headway": ds / va if ds > 0 and va > 0 else _INF, "headway_free": ds_free / va if ds_free > 0 and va > 0 else _INF,
+        "ttc": ds / closing if ds > 0 and closing > 0 else _INF,
+        "ttc_free": 0.0 if ds_free == 0 and dt_free == 0 else ds_free / closing if ds_free > 0 and closing > 0 else _INF,
+    }  # fmt: skip
+
+
+def _lanes_between(a: int, b: int) -> int:
+    """How many lanes b is from a (positive towards higher ids), the centre lane 0 not counted."""
+    if (a < 0) == (b < 0):
+        return b - a
+    return b - a - 1 if b > a else b - a + 1
 
 
 def _close(lib: Any) -> None:

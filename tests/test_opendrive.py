@@ -1,0 +1,294 @@
+"""SUMO cases on OpenDRIVE roads (docs/opendrive.md): netconvert's network cached by content, positions
+mapped exactly (checked against libsumo's own getters and the road's own numbers), the road's signals,
+storyboard-exact entities, and bad roads refused with exit 2.
+
+The curved roads are the ALKS corpus's (radius 250 m and 1000 m); those tests skip where it is absent.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import pathlib
+import shutil
+from typing import Any
+
+import pytest
+from py_trees.blackboard import Blackboard
+
+import btgen_pytrees
+from btgen_pytrees import generate
+from btgen_pytrees.cli import main
+from btgen_pytrees.leaves import default_registry
+from btgen_pytrees.run import run_tree
+from btgen_pytrees.systems.sumo import roads
+from btgen_pytrees.systems.sumo.opendrive import OpenDriveError, read_opendrive
+
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("libsumo") is None and not os.environ.get("CI"),
+    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)",
+)
+
+CORPUS = pathlib.Path(__file__).resolve().parents[2] / "shared" / "corpus" / "openscenario" / "alks"
+ROADS = CORPUS / "logical_scenarios" / "concrete_scenarios" / "road_networks"
+if not ROADS.is_dir():
+    ROADS = pathlib.Path("/work/shared/corpus/openscenario/alks/logical_scenarios/concrete_scenarios/road_networks")
+
+# the corpus's lanes: t of each lane's centre (borders 2 and 0.75 m wide, driving lanes 3.5 m, the stop lane 3 m)
+BORDERS = {-3: (-6.25, -2.75), -4: (-9.75, -6.25), -5: (-13.25, -9.75)}
+
+STRAIGHT = """<?xml version="1.0"?>
+<OpenDRIVE><header revMajor="1" revMinor="6"/>
+ <road id="7" length="600" junction="-1">
+  <planView><geometry s="0" x="10" y="20" hdg="0.5" length="600"><line/></geometry></planView>
+  <lanes><laneSection s="0">
+   <left><lane id="1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/></lane></left>
+   <center><lane id="0" type="none"/></center>
+   <right><lane id="-1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/></lane>
+          <lane id="-2" type="driving"><width sOffset="0" a="3.25" b="0" c="0" d="0"/></lane></right>
+  </laneSection></lanes>
+ </road>
+</OpenDRIVE>
+"""
+
+
+@pytest.fixture(autouse=True)
+def cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> pathlib.Path:
+    folder = tmp_path_factory.getbasetemp() / "btgen-cache"
+    monkeypatch.setenv("BTGEN_CACHE", str(folder))
+    return folder
+
+
+def entity(position: dict[str, Any], speed: Any = 0.0, **more: Any) -> dict[str, Any]:
+    return {"length": 4.5, "width": 1.8, "center": [1.3, 0.0, 0.7], "position": position, "speed": speed, **more}
+
+
+def write_case(folder: pathlib.Path, road: str, entities: dict[str, Any], expect: str = "sim.collisions >= 0",
+               timeout: float = 0.1, execute: list[dict[str, Any]] | None = None) -> pathlib.Path:  # fmt: skip
+    case = {"name": "road", "tick": 0.1, "timeout": timeout,
+            "system": {"type": "sumo", "road": road, "entities": entities},
+            "execute": execute or [{"id": "W", "kind": "constraint", "action": "wait", "params": {"duration": timeout}}],
+            "oracle": {"criteria": [{"id": "R1", "type": "record", "expect": expect}]}}  # fmt: skip
+    path = folder / "case.json"
+    path.write_text(json.dumps(case))
+    return path
+
+
+def ticks(path: pathlib.Path, getters: Any) -> tuple[Any, list[dict[str, Any]], list[Any]]:
+    """Run the case; per tick its signals and what *getters* (called with libsumo) read from SUMO itself."""
+    import libsumo
+
+    registry = default_registry()
+    case = btgen_pytrees.load(str(path), registry=registry)
+    system = btgen_pytrees.run.create_system(case, registry)
+    root = generate(case, registry=registry, clock=system)
+    prefix = root.btgen_env.namespace + "/signals/"
+    signals: list[dict[str, Any]] = []
+    read: list[Any] = []
+
+    def seen(_k: int, _t: float) -> None:
+        signals.append({k[len(prefix):]: v for k, v in Blackboard.storage.items() if k.startswith(prefix)})
+        read.append(getters(libsumo))
+
+    report = run_tree(root, case, system=system, record=True, progress=seen)
+    root.btgen_env.clear()
+    return report, signals, read
+
+
+def arc(k: float, s: float, t: float) -> tuple[float, float, float]:
+    """World point and heading of road coordinates (s, t) on a road that starts at the origin heading east with
+    constant curvature k (the corpus's roads), by the circle's own formula."""
+    if k == 0:
+        return s, t, 0.0
+    h = k * s
+    return math.sin(h) / k - t * math.sin(h), (1 - math.cos(h)) / k + t * math.cos(h), h
+
+
+def test_netconvert_output_is_cached_by_content_and_the_same_bytes_every_time(tmp_path: pathlib.Path, cache: pathlib.Path) -> None:
+    if roads.netconvert_binary() is None:
+        pytest.fail("netconvert is missing (the sumo extra installs it)") if os.environ.get("CI") else pytest.skip("no netconvert")
+    a = tmp_path / "a.xodr"
+    a.write_text(STRAIGHT)
+    net, network = roads.convert(str(a))
+    assert network.roads["7"].length == 600
+    text = pathlib.Path(net).read_text()
+    assert "generated on" not in text and str(tmp_path) not in text  # no time stamp, no path of the user's
+    assert '<param key="origId" value="7_-2"/>' in text and '<param key="origId" value="7_1"/>' in text
+    stamp = os.stat(net).st_mtime_ns
+    b = tmp_path / "b.xodr"  # the same bytes under another name: the same network, not converted again
+    shutil.copy(a, b)
+    assert roads.convert(str(b))[0] == net and os.stat(net).st_mtime_ns == stamp
+    assert str(cache) in net and not any(p.suffix == ".xml" for p in tmp_path.iterdir())  # nothing in the user's tree
+    a.write_text(STRAIGHT.replace('length="600"', 'length="500"'))  # other content: another network
+    assert roads.convert(str(a))[0] != net
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "road.xodr: cannot read"),
+    ('<?xml version="1.0"?>\n<!DOCTYPE x [<!ENTITY a "aaaa">]>\n<OpenDRIVE/>', "road.xodr:2: a DOCTYPE is not allowed"),
+    ("<OpenDRIVE><road id='1' length='10'>", "road.xodr:1: not well-formed XML"),
+    ("<routes/>", "road.xodr: not an OpenDRIVE file"),
+    (STRAIGHT.replace("<line/>", "<include file='/etc/passwd'/>"), "is not allowed"),
+    (STRAIGHT.replace("<line/>", ""), "road '7' has no reference line"),
+], ids=["missing", "doctype", "malformed", "not-opendrive", "include", "no-geometry"])  # fmt: skip
+def test_a_road_that_is_missing_unsafe_or_unreadable_is_exit_2_naming_the_file(
+        tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], content: str | None, message: str) -> None:  # fmt: skip
+    if content is not None:
+        (tmp_path / "road.xodr").write_text(content)
+    case = write_case(tmp_path, "road.xodr", {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}})})
+    assert main(["validate", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "case.json: /system/road: " in err and message in err, err
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("position, where, message", [
+    ({"LanePosition": {"roadId": "8", "laneId": -1, "s": 10}}, "/system/entities/Ego/position", "has no road '8' (roads: 7)"),
+    ({"LanePosition": {"roadId": "7", "laneId": -3, "s": 10}}, "/system/entities/Ego/position", "has no lane -3 at s = 10"),
+    ({"LanePosition": {"roadId": "7", "laneId": -1, "s": 700}}, "/system/entities/Ego/position", "s = 700 is outside road '7'"),
+    ({"RelativeLanePosition": {"entityRef": "Lead", "dLane": 0, "ds": 5}}, "/system/entities/Ego/position/RelativeLanePosition/entityRef",
+     "'Lead' is not an entity placed before"),
+    ({"GeoPosition": {}}, "/system/entities/Ego/position", "give exactly one of LanePosition"),
+], ids=["road", "lane", "s", "later-entity", "kind"])  # fmt: skip
+def test_a_position_off_the_road_is_exit_2_with_its_json_path(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str],
+                                                             position: dict[str, Any], where: str, message: str) -> None:  # fmt: skip
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    case = write_case(tmp_path, "road.xodr", {"Ego": entity(position), "Lead": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 90}})})
+    assert main(["validate", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert f"case.json: {where}: " in err and message in err, err
+
+
+def placements(road: str) -> dict[str, Any]:
+    return {
+        "Ego": entity({"LanePosition": {"roadId": "0", "laneId": -4, "s": 5.0}}, 16.0),
+        "Side": entity({"RelativeLanePosition": {"entityRef": "Ego", "dLane": 1, "ds": 40.0}}, 10.0),
+        "Far": entity({"LanePosition": {"roadId": "0", "laneId": -5, "s": 300.0, "offset": 0.4}}, 0.0, length=12.0, width=2.5, center=[4.0, 0.0, 1.5]),
+        "Onc": entity({"RoadPosition": {"roadId": "0", "s": 500.0, "t": 8.0}}, 20.0),
+        "Obj": entity({"RelativeObjectPosition": {"entityRef": "Ego", "dx": 30.0, "dy": -3.5}}, 0.0),
+    }  # fmt: skip
+
+
+def expected(k: float) -> dict[str, tuple[int, float, float]]:
+    """entity -> (lane id, s, t) of its reference point, from the scenario's own numbers."""
+    ego_x, ego_y, ego_h = arc(k, 5.0, -8.0)
+    ox, oy = ego_x + 30 * math.cos(ego_h) + 3.5 * math.sin(ego_h), ego_y + 30 * math.sin(ego_h) - 3.5 * math.cos(ego_h)
+    # the object's s and t: the foot of the perpendicular on the reference line, by the circle's formula
+    if k == 0:
+        obj_s, obj_t = ox, oy
+    else:
+        centre = (0.0, 1 / k)
+        obj_s = (math.atan2(ox - centre[0], -(oy - centre[1])) if k > 0 else math.atan2(ox, oy - centre[1])) / abs(k)
+        obj_t = (1 / k - math.copysign(math.hypot(ox - centre[0], oy - centre[1]), 1 / k))
+    return {"Ego": (-4, 5.0, -8.0), "Side": (-3, 45.0, -4.5), "Far": (-5, 300.0, -11.1), "Onc": (4, 500.0, 8.0),
+            "Obj": (next(lane for lane, (low, high) in BORDERS.items() if low <= obj_t <= high), obj_s, obj_t)}  # fmt: skip
+
+
+@pytest.mark.parametrize("name, k", [("alks_road_straight", 0.0), ("alks_road_right_radius_250m", -0.004),
+                                     ("alks_road_left_radius_1000m", 0.001)])  # fmt: skip
+def test_positions_map_to_sumo_exactly_and_back_on_straight_and_curved_roads(tmp_path: pathlib.Path, name: str, k: float) -> None:
+    xodr = ROADS / f"{name}.xodr"
+    if not xodr.is_file():
+        pytest.skip("the ALKS corpus is not here")
+    entities = placements(name)
+    ids = list(entities)
+    case = write_case(tmp_path, str(xodr), entities)
+    report, signals, read = ticks(case, lambda ls: {v: (ls.vehicle.getPosition(v), ls.vehicle.getLaneID(v), ls.vehicle.getSpeed(v)) for v in ids})
+    assert report.verdict == "pass", report.message
+    want = expected(k)
+    first, sumo = signals[0], read[0]
+    for vid in ids:
+        lane, s, t = want[vid]
+        e = entities[vid]
+        x, y, h = arc(k, s, t)
+        if lane > 0:
+            h += math.pi
+        # the road's signals: the reference point where the scenario puts it, within 0.1 m
+        assert math.hypot(first[f"{vid}.ref_x"] - x, first[f"{vid}.ref_y"] - y) < 0.1, (vid, first[f"{vid}.ref_x"], x, first[f"{vid}.ref_y"], y)
+        assert first[f"{vid}.lane_id"] == lane and first[f"{vid}.road"] == 0
+        assert abs(first[f"{vid}.s"] - s) < 0.1 and abs(first[f"{vid}.t"] - t) < 0.1, (vid, first[f"{vid}.s"], s, first[f"{vid}.t"], t)
+        # libsumo's own getters: SUMO's front bumper is length/2 + centre ahead of that point, along the lane
+        (fx, fy), sumo_lane, speed = sumo[vid]
+        ax, ay = _along_lane(k, s, t, e["center"][0] + e["length"] / 2, lane > 0)
+        assert math.hypot(fx - ax, fy - ay) < 0.1, (vid, (fx, fy), (ax, ay))
+        assert sumo_lane.startswith("-0_" if lane < 0 else "0_")
+        expected_speed = e["speed"] if not isinstance(e["speed"], dict) else 16.0 + e["speed"]["value"]
+        assert speed == pytest.approx(expected_speed)
+        assert first[f"{vid}.speed"] == pytest.approx(expected_speed)
+    # pairs: Side is 40 m ahead of Ego along the reference line, one lane to its left
+    assert first["Ego.Side.ds"] == pytest.approx(40.0, abs=0.1) and first["Ego.Side.dlane"] == 1
+    assert first["Ego.Side.ds_free"] == pytest.approx(40.0 - 4.5, abs=0.1)
+    assert first["Ego.Side.headway"] == pytest.approx(40.0 / 16.0, abs=0.01)
+    assert first["Ego.Side.ttc"] == pytest.approx(40.0 / 6.0, abs=0.05)
+    assert first["Side.Ego.ds"] == pytest.approx(-40.0, abs=0.1) and first["Side.Ego.ttc"] == math.inf
+
+
+def _along_lane(k: float, s: float, t: float, ahead: float, backwards: bool) -> tuple[float, float]:
+    """The point *ahead* m further along the lane at offset t (against s on left lanes), by the circle's formula."""
+    if k == 0:
+        return (s - ahead, t) if backwards else (s + ahead, t)
+    radius = 1 / k - t  # the lane's own radius (signed like 1/k)
+    ds = ahead * (1 / k) / radius
+    x, y, _ = arc(k, s - ds if backwards else s + ds, t)
+    return x, y
+
+
+def test_an_entity_without_a_controller_keeps_its_speed_and_runs_into_a_standing_car(tmp_path: pathlib.Path) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}}, 20.0),
+                "Lead": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 60}}, 0.0)}  # fmt: skip
+    case = write_case(tmp_path, "road.xodr", entities, timeout=4,
+                      execute=[{"id": "C", "kind": "constraint", "action": "until", "params": {"expect": "Ego.collided", "timeout": 4}}])  # fmt: skip
+    report, signals, read = ticks(case, lambda ls: ls.simulation.getCollisions())
+    assert report.execute[0].status == "success"
+    # 50 m between the reference points, 4.5 m of car between the bumpers: contact after 45.5 / 20 = 2.275 s
+    hit = next(i for i, s in enumerate(signals) if s["Ego.collided"])
+    assert hit == 23  # the state at 2.3 s is the first with the bumpers overlapping
+    assert all(s["Ego.speed"] == 20.0 for s in signals[:hit])  # no car-following: no braking at all
+    assert [c.collider for c in read[hit]] == ["Ego"]  # SUMO's own collision
+    assert signals[hit]["Ego.Lead.ds_free"] == 0 and signals[hit - 1]["Ego.Lead.ds_free"] == pytest.approx(45.5 - 2.2 * 20, abs=1e-3)
+    assert signals[hit]["Lead.still"] == pytest.approx(2.3) and signals[hit]["Ego.still"] == 0
+
+
+def test_the_road_signals_are_read_only_where_the_tree_reads_them(tmp_path: pathlib.Path) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}}, 20.0),
+                "Lead": entity({"LanePosition": {"roadId": "7", "laneId": -2, "s": 60}}, 10.0)}  # fmt: skip
+    case = btgen_pytrees.load(str(write_case(tmp_path, "road.xodr", entities, expect="Ego.Lead.ds < 100 && Ego.s > 0", timeout=1)))
+    registry = default_registry()
+    system = btgen_pytrees.run.create_system(case, registry)
+    root = generate(case, registry=registry, clock=system)
+    prefix = root.btgen_env.namespace + "/signals/"
+    published: list[set[str]] = []
+    run_tree(root, case, system=system, record=False, progress=lambda _k, _t: published.append(
+        {k[len(prefix):] for k in Blackboard.storage if k.startswith(prefix) and ("." in k[len(prefix):])}))
+    root.btgen_env.clear()
+    road_signals = {n for n in published[-1] if n.split(".")[-1] in roads_attributes()}
+    assert road_signals == {"Ego.Lead.ds", "Ego.s"}, road_signals
+
+
+def roads_attributes() -> set[str]:
+    from btgen_pytrees.systems.sumo.system import PAIR_ATTRIBUTES, ROAD_ATTRIBUTES
+
+    return set(PAIR_ATTRIBUTES) | set(ROAD_ATTRIBUTES)
+
+
+def test_the_opendrive_reader_evaluates_spirals_and_finds_road_coordinates_back(tmp_path: pathlib.Path) -> None:
+    xodr = ROADS / "alks_road_different_curvatures.xodr"
+    if not xodr.is_file():
+        pytest.skip("the ALKS corpus is not here")
+    network = read_opendrive(str(xodr))
+    road = network.roads["0"]
+    assert [g.kind for g in road.geometries][:4] == ["line", "spiral", "arc", "spiral"]
+    # the reference line is continuous from piece to piece (each piece starts where the one before ends)
+    for before, after in zip(road.geometries, road.geometries[1:]):
+        x, y, h = before.at(before.length)
+        assert math.hypot(x - after.x, y - after.y) < 1e-3 and abs(math.remainder(h - after.hdg, 2 * math.pi)) < 1e-6
+    for s in (10.0, 333.3, 1234.5, 4000.0):
+        pose = network.lane_pose("0", -4, s, 0.3)
+        back = network.locate(pose.x, pose.y)
+        assert back is not None and back.lane == -4 and back.s == pytest.approx(s, abs=1e-6) and back.offset == pytest.approx(0.3, abs=1e-6)
+    with pytest.raises(OpenDriveError, match="has no lane 9"):
+        network.lane_pose("0", 9, 10.0)

@@ -241,13 +241,15 @@ def test_an_entity_without_a_controller_keeps_its_speed_and_runs_into_a_standing
                 "Lead": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 60}}, 0.0)}  # fmt: skip
     case = write_case(tmp_path, "road.xodr", entities, timeout=4,
                       execute=[{"id": "C", "kind": "constraint", "action": "until", "params": {"expect": "Ego.collided", "timeout": 4}}])  # fmt: skip
-    report, signals, read = ticks(case, lambda ls: ls.simulation.getCollisions())
+    report, signals, read = ticks(case, lambda ls: (ls.simulation.getCollisions(), ls.vehicle.getSpeedMode("Ego"),
+                                                    ls.vehicle.getLaneChangeMode("Ego")))  # fmt: skip
     assert report.execute[0].status == "success"
     # 50 m between the reference points, 4.5 m of car between the bumpers: contact after 45.5 / 20 = 2.275 s
     hit = next(i for i, s in enumerate(signals) if s["Ego.collided"])
     assert hit == 23  # the state at 2.3 s is the first with the bumpers overlapping
     assert all(s["Ego.speed"] == 20.0 for s in signals[:hit])  # no car-following: no braking at all
-    assert [c.collider for c in read[hit]] == ["Ego"]  # SUMO's own collision
+    assert [c.collider for c in read[hit][0]] == ["Ego"]  # SUMO's own collision
+    assert {r[1:] for r in read} == {(0, 0)}  # SUMO's speed and lane-change mode 0 all along
     assert signals[hit]["Ego.Lead.ds_free"] == 0 and signals[hit - 1]["Ego.Lead.ds_free"] == pytest.approx(45.5 - 2.2 * 20, abs=1e-3)
     assert signals[hit]["Lead.still"] == pytest.approx(2.3) and signals[hit]["Ego.still"] == 0
 
@@ -292,3 +294,17 @@ def test_the_opendrive_reader_evaluates_spirals_and_finds_road_coordinates_back(
         assert back is not None and back.lane == -4 and back.s == pytest.approx(s, abs=1e-6) and back.offset == pytest.approx(0.3, abs=1e-6)
     with pytest.raises(OpenDriveError, match="has no lane 9"):
         network.lane_pose("0", 9, 10.0)
+
+
+def test_an_activated_controller_brakes_where_the_storyboard_exact_entity_ran_into_the_car(tmp_path: pathlib.Path) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}}, 20.0),
+                "Lead": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 110}}, 0.0)}  # fmt: skip
+    execute = [{"id": "A", "kind": "behavior", "action": "sumo.controller", "params": {"vehicle": "Ego", "lateral": False}},
+               {"id": "C", "kind": "constraint", "after": ["A"], "action": "until", "params": {"expect": "Ego.still >= 1", "timeout": 15}}]  # fmt: skip
+    case = write_case(tmp_path, "road.xodr", entities, expect="!Ego.collided", timeout=15, execute=execute)
+    report, signals, read = ticks(case, lambda ls: (ls.vehicle.getSpeedMode("Ego"), ls.vehicle.getLaneChangeMode("Ego")))
+    assert report.verdict == "pass", report.message
+    # SUMO's own modes: its driver model for the speed only (with lane changes allowed too, it overtakes)
+    assert read[-1] == (31, 0)
+    assert signals[-1]["Ego.speed"] < 0.1 and 2.5 <= signals[-1]["Ego.Lead.ds_free"] < 3  # stopped behind the car, minGap (2.5 m) away

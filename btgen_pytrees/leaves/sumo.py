@@ -25,7 +25,7 @@ from ..systems.sumo import SUMO
 from ..systems.sumo.system import CommandError, SumoSystem
 from .simulated import SimulatedLeaf, reached
 
-__all__ = ["SumoAction", "Speed", "Release", "Lane", "Spawn", "Signal", "PARAMS", "TIMEOUT", "register"]
+__all__ = ["SumoAction", "Speed", "Release", "Lane", "Spawn", "Signal", "Controller", "PARAMS", "TIMEOUT", "register"]
 
 # the statuses as module constants: ``Status.SUCCESS`` is a look-up on the Enum class (~80 ns), every tick
 _SUCCESS, _FAILURE, _RUNNING = Status.SUCCESS, Status.FAILURE, Status.RUNNING
@@ -50,6 +50,8 @@ PARAMS: dict[str, dict[str, Any]] = {
                      type={"type": "string", "minLength": 1}, lane={"type": "integer", "minimum": 0},
                      position={"type": "number", "minimum": 0}, speed={"type": "number", "minimum": 0},
                      timeout=_SECONDS),  # fmt: skip
+    "controller": _params(["vehicle"], vehicle=_VEHICLE, active={"type": "boolean"}, longitudinal={"type": "boolean"},
+                          lateral={"type": "boolean"}),  # fmt: skip
     "signal": _params(["tls", "state"], tls={"type": "string", "minLength": 1},
                       state={"type": "string", "pattern": "^[rRyYgGsuoO]+$",
                              "description": "a state string of r, y, g, G, s, u, o, O (one per controlled link)"}),  # fmt: skip
@@ -213,14 +215,32 @@ class Signal(SumoAction):
         self.feedback_message = f"{self.params['tls']} = {self.params['state']}"
 
 
+class Controller(SumoAction):
+    """``sumo.controller {vehicle, active = true, longitudinal = true, lateral = true}``: OpenSCENARIO's
+    ActivateControllerAction. Active: SUMO's driver model drives the vehicle in the domains named (its own
+    speed, car-following and safe speed; its own lane changes); inactive: storyboard-exact again (speed and
+    lane-change mode 0, holding the speed it has). Succeeds at once (docs/opendrive.md)."""
+
+    def begin(self, system: SumoSystem) -> None:
+        vid, p = self.params["vehicle"], self.params
+        if self.need(system, vid):
+            if p.get("active", True):
+                system.control(vid, p.get("longitudinal", True), p.get("lateral", True))
+                self.feedback_message = f"{vid} driven by SUMO's driver model"
+            else:
+                system.uncontrol(vid)
+                self.feedback_message = f"{vid} storyboard-exact"
+
+
 _DESCRIPTIONS = {
     "speed": "take over a vehicle's speed: ramp to 'to' over 'duration', then hold it ('safe': false disables SUMO's checks)",
     "release": "give a vehicle back to SUMO's driver model",
     "lane": "change lane; succeed once on 'lane', fail after 'timeout'",
     "spawn": "insert a vehicle on a route; succeed once it is in the network",
     "signal": "set a traffic light's state string",
+    "controller": "hand a vehicle to SUMO's driver model ('active': false takes it back: storyboard-exact)",
 }
-_LEAVES = {"speed": Speed, "release": Release, "lane": Lane, "spawn": Spawn, "signal": Signal}
+_LEAVES = {"speed": Speed, "release": Release, "lane": Lane, "spawn": Spawn, "signal": Signal, "controller": Controller}
 
 
 def register(registry: Registry) -> Registry:

@@ -82,6 +82,9 @@ DEFAULTS = {"collision.action": "warn"}
 ``collision.action`` is ``teleport``: in the step of the collision the collider is moved hundreds of
 metres ahead (or to its next edge), so no signal, trace or scene ever shows the two vehicles where they
 met. ``warn`` leaves them where they are, in contact, on the tick the collision counts (docs/sumo.md)."""
+HALTING = 0.1
+"""m/s: slower than this an entity stands still (``E.still``), SUMO's own halting speed (its car-following
+models approach a standing car ever slower, never reaching 0)."""
 LOOKAHEAD = 1000.0
 """Metres ahead in which a vehicle's leader counts (``V.gap`` and ``V.ttc`` are inf beyond; SUMO itself
 reports a leader further ahead on the same lane)."""
@@ -620,7 +623,7 @@ class SumoSystem:
                 self._since.pop(vid, None)
                 continue
             speed = r[_SPEED]
-            if abs(speed) > 1e-9:
+            if abs(speed) >= HALTING:
                 self._since.pop(vid, None)
             since = self._since.setdefault(vid, now)
             lane = self.road.net.lanes.get(r[_LANE_ID])
@@ -718,6 +721,26 @@ class SumoSystem:
         if not safe:
             self._call(v.setLaneChangeMode, vid, 0)  # no own lane changes; the request ignores others' gaps
         self._call(v.changeLane, vid, int(lane), float(seconds) - self.tick_length)
+
+    def control(self, vid: str, longitudinal: bool, lateral: bool) -> None:
+        """Hand entity *vid* to SUMO's driver model (OpenSCENARIO's ActivateControllerAction): SUMO's default
+        speed mode (31) and its own speed where *longitudinal*, its default lane-change mode (1621) where
+        *lateral*; the other domain stays storyboard-exact."""
+        v = self._lib.vehicle
+        self.taken.pop(vid, None)
+        if longitudinal:
+            self._call(v.setSpeedMode, vid, 31)
+            self._call(v.setSpeed, vid, -1.0)
+        if lateral:
+            self._call(v.setLaneChangeMode, vid, 1621)
+
+    def uncontrol(self, vid: str) -> None:
+        """Take entity *vid* back from SUMO's driver model: storyboard-exact again, at the speed it has now."""
+        v = self._lib.vehicle
+        self.taken.pop(vid, None)
+        self._call(v.setSpeedMode, vid, 0)
+        self._call(v.setLaneChangeMode, vid, 0)
+        self._call(v.setSpeed, vid, self.speed(vid))
 
     def release(self, vid: str) -> None:
         """Give *vid* back to SUMO's driver model: its own speed, its modes, and no lane request any more."""

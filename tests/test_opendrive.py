@@ -308,3 +308,110 @@ def test_an_activated_controller_brakes_where_the_storyboard_exact_entity_ran_in
     # SUMO's own modes: its driver model for the speed only (with lane changes allowed too, it overtakes)
     assert read[-1] == (31, 0)
     assert signals[-1]["Ego.speed"] < 0.1 and 2.5 <= signals[-1]["Ego.Lead.ds_free"] < 3  # stopped behind the car, minGap (2.5 m) away
+
+
+SHAPE = {"step": lambda u: 1.0, "linear": lambda u: u, "cubic": lambda u: u * u * (3 - 2 * u),
+         "sinusoidal": lambda u: (1 - math.cos(math.pi * u)) / 2}  # fmt: skip
+
+
+def test_speed_actions_reach_their_targets_at_the_times_their_dynamics_give(tmp_path: pathlib.Path) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    lanes = {"A": (-1, 10), "B": (-2, 10), "C": (1, 500), "D": (-1, 200), "E": (-2, 200)}
+    entities = {n: entity({"LanePosition": {"roadId": "7", "laneId": lane, "s": s}}, 10.0) for n, (lane, s) in lanes.items()}
+    actions = {  # entity: (params, start speed, target, span in s)
+        "A": ({"to": 20, "shape": "linear", "rate": 2}, 10.0, 20.0, 5.0),
+        "B": ({"to": 0, "shape": "cubic", "duration": 4}, 10.0, 0.0, 4.0),
+        "C": ({"to": 20, "shape": "sinusoidal", "distance": 60}, 10.0, 20.0, 4.0),  # 60 m at a mean of 15 m/s
+        "D": ({"to": 5, "shape": "step", "duration": 3}, 10.0, 5.0, 0.0),  # a step takes no time, whatever is given
+        "E": ({"relative": {"entity": "A", "value": 1.5, "type": "factor"}, "shape": "linear", "duration": 2}, 10.0, 15.0, 2.0),
+    }  # fmt: skip
+    execute = [{"id": f"S{n}", "kind": "behavior", "action": "sumo.speed", "params": {"vehicle": n, **p}} for n, (p, *_) in actions.items()]
+    case = write_case(tmp_path, "road.xodr", entities, timeout=6, execute=execute)
+    report, signals, read = ticks(case, lambda ls: {n: ls.vehicle.getSpeed(n) for n in lanes})
+    assert report.verdict == "pass", report.message
+    ends = {e.id: e.end for e in report.execute}
+    for n, (_, v0, v1, span) in actions.items():
+        assert ends[f"S{n}"] == pytest.approx(math.ceil(span * 10 - 1e-9) / 10), n  # the first tick at or after the span
+        shape = SHAPE[actions[n][0].get("shape", "linear")]
+        for k, speeds in enumerate(read):
+            t = round(k * 0.1, 10)
+            want = v1 if span == 0 or t >= span else v0 + (v1 - v0) * shape(t / span)
+            if k == 0 and span > 0:
+                want = v0 + (v1 - v0) * shape(0.1 / span)  # the first command acts from the first tick on
+            if k == 0:
+                continue
+            assert speeds[n] == pytest.approx(want, abs=1e-6), (n, t, speeds[n], want)  # libsumo's own speed
+            assert signals[k][f"{n}.speed"] == pytest.approx(want, abs=1e-6)
+
+
+@pytest.mark.parametrize("road", ["inline", "alks_road_right_radius_250m"])
+def test_lane_change_offset_teleport_and_distance_move_as_the_dynamics_say(tmp_path: pathlib.Path, road: str) -> None:
+    if road == "inline":
+        (tmp_path / "road.xodr").write_text(STRAIGHT)
+        xodr, rid, ego_lane, cut_lane, far_lane, t_from, t_to, kappa = "road.xodr", "7", -1, -2, -1, -5.125, -1.75, 0.0
+    else:
+        if not (ROADS / f"{road}.xodr").is_file():
+            pytest.skip("the ALKS corpus is not here")
+        xodr, rid, ego_lane, cut_lane, far_lane, t_from, t_to, kappa = str(ROADS / f"{road}.xodr"), "0", -4, -5, -3, -11.5, -8.0, -0.004
+    entities = {"Ego": entity({"LanePosition": {"roadId": rid, "laneId": ego_lane, "s": 5.0}}, 10.0),
+                "Cut": entity({"RelativeLanePosition": {"entityRef": "Ego", "dLane": cut_lane - ego_lane, "ds": 30.0}}, 10.0),
+                "Far": entity({"LanePosition": {"roadId": rid, "laneId": far_lane, "s": 200.0}}, 10.0),
+                "Back": entity({"LanePosition": {"roadId": rid, "laneId": far_lane, "s": 100.0}}, 10.0,
+                               distance={"entityRef": "Far", "timeGap": 1.5, "freespace": True})}  # fmt: skip
+    rate = 2.0
+    span = abs(t_to - t_from) * math.pi / 2 / rate  # sinusoidal: the peak lateral speed is pi/2 times the mean
+    execute = [
+        {"id": "L", "kind": "behavior", "action": "sumo.lane_change",
+         "params": {"vehicle": "Cut", "relative": {"entity": "Ego", "value": 0}, "shape": "sinusoidal", "rate": rate}},
+        {"id": "O", "kind": "behavior", "after": ["L"], "action": "sumo.lane_offset",
+         "params": {"vehicle": "Cut", "offset": 0.5, "shape": "sinusoidal", "max_lateral_acc": 1.0}},
+        {"id": "T", "kind": "behavior", "after": ["O"], "action": "sumo.teleport",
+         "params": {"vehicle": "Ego", "position": {"RelativeLanePosition": {"entityRef": "Far", "dLane": 0, "ds": -60.0}}}},
+        {"id": "P", "kind": "constraint", "after": ["T"], "action": "wait", "params": {"duration": 0.3}},
+        {"id": "F", "kind": "behavior", "after": ["P"], "action": "sumo.follow",
+         "params": {"vehicle": "Ego", "entity": "Far", "distance": 20.0, "freespace": True}},
+        {"id": "W", "kind": "constraint", "after": ["F"], "action": "wait", "params": {"duration": 0.5}},
+    ]  # fmt: skip
+    case = write_case(tmp_path, xodr, entities, timeout=8, execute=execute)
+    report, signals, read = ticks(case, lambda ls: (ls.vehicle.getLaneID("Cut"), ls.vehicle.getPosition("Ego")))
+    assert report.verdict == "pass", report.message
+    end = {e.id: e.end for e in report.execute}
+    # Init's LongitudinalDistanceAction: 1.5 s at Back's 10 m/s between the bumpers
+    assert signals[0]["Back.Far.ds_free"] == pytest.approx(15.0, abs=0.05)
+    # the lane change: t follows the sinusoid from lane to lane and ends in the lane asked, on the tick the span ends
+    assert end["L"] == pytest.approx(math.ceil(span * 10) / 10)
+    k_end = round(end["L"] * 10)
+    for k in range(1, k_end + 1):
+        want = t_from + (t_to - t_from) * SHAPE["sinusoidal"](min(1.0, k * 0.1 / span))
+        assert signals[k]["Cut.t"] == pytest.approx(want, abs=0.03), (k, signals[k]["Cut.t"], want)
+    assert signals[k_end]["Cut.lane_id"] == ego_lane and read[k_end][0] in {f"-{rid}_{i}" for i in range(8)}
+    # s goes on meanwhile: 10 m/s along the lane, whose length per metre of s is 1 - kappa t on a curve of curvature kappa
+    assert signals[k_end]["Cut.s"] - signals[0]["Cut.s"] == pytest.approx(10.0 * end["L"] / (1 - kappa * (t_from + t_to) / 2), rel=0.005)
+    # the lane offset: 0.5 m to the left in pi * sqrt(0.5 / 2) s (a sinusoid's peak lateral acceleration is pi^2/2 change/T^2)
+    assert end["O"] - end["L"] == pytest.approx(math.ceil(math.pi * math.sqrt(0.5 / 2) * 10) / 10, abs=1e-9)
+    k_o = round(end["O"] * 10)
+    assert signals[k_o]["Cut.offset"] == pytest.approx(0.5, abs=0.03) and signals[k_o]["Cut.lane_id"] == ego_lane
+    # the teleport: Ego's reference point 60 m behind where Far's was on its tick, on the tick after it (Far has
+    # driven on 1 m meanwhile); both drive on at 10 m/s
+    k_t = round(end["T"] * 10) + 1
+    assert signals[k_t]["Ego.Far.ds"] == pytest.approx(61.0, abs=0.1) and signals[k_t]["Ego.lane_id"] == far_lane
+    assert signals[k_t + 1]["Ego.Far.ds"] == pytest.approx(61.0, abs=0.1)
+    # the distance: 20 m between the bumpers from the tick the action succeeded on
+    k_f = round(end["F"] * 10)
+    for k in range(k_f, len(signals)):
+        assert signals[k]["Ego.Far.ds_free"] == pytest.approx(20.0, abs=0.1), (k, signals[k]["Ego.Far.ds_free"])
+
+
+def test_the_documented_controller_plugin_stops_the_ego_short_of_the_standing_car(tmp_path: pathlib.Path) -> None:
+    doc = (pathlib.Path(__file__).resolve().parent.parent / "docs" / "opendrive.md").read_text()
+    code = doc.split("```python\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "aeb.py").write_text(code)
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}}, 20.0),
+                "Lead": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 110}}, 0.0)}  # fmt: skip
+    execute = [{"id": "AEB", "kind": "behavior", "action": "my.aeb", "params": {}},
+               {"id": "C", "kind": "constraint", "action": "until", "params": {"expect": "Ego.still >= 0.5", "timeout": 10}}]  # fmt: skip
+    case = write_case(tmp_path, "road.xodr", entities, expect="!Ego.collided", timeout=10, execute=execute)
+    assert main(["run", str(case), "--plugin", str(tmp_path / "aeb.py"), "--json", str(tmp_path / "r.json")]) == 0
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["verdict"] == "pass" and [e["status"] for e in report["execute"]] == ["success", "success"]

@@ -101,6 +101,7 @@ class SumoType:
         spawned: dict[str, int] = {}
         for i, action, params in _sumo_entries(case_data):
             problems += self._check_action(scenario, spawned, i, action, params)
+            problems += _check_road_action(road, i, action, params)
         for i, action, params in _sumo_entries(case_data):
             vid = params.get("vehicle")
             if action != "spawn" and isinstance(vid, str) and vid not in scenario.vehicles and vid not in spawned:
@@ -183,6 +184,28 @@ class SumoType:
         spawned = [e.params["vehicle"] for e in case.entries if e.action == "sumo.spawn"]
         tracked = signal_vehicles([*scenario.vehicles, *spawned])
         return SumoSystem(scenario, options, case.tick, tracked, spawns=bool(spawned), road=road)
+
+
+_ROAD_ACTIONS = ("lane_change", "lane_offset", "teleport", "follow")
+
+
+def _check_road_action(road: RoadCase | None, i: int, action: str, params: Mapping[str, Any]) -> list[Problem]:
+    """The entities an action on an OpenDRIVE road names must be the case's (docs/opendrive.md)."""
+    out = []
+    refs = [("vehicle", params.get("vehicle"))] if action in _ROAD_ACTIONS else []
+    relative = params.get("relative")
+    if isinstance(relative, dict):
+        refs.append(("relative", relative.get("entity")))
+    if action == "follow":
+        refs.append(("entity", params.get("entity")))
+    if refs and road is None:
+        return [Problem(("execute", i, "action"), f"sumo.{action} needs a case on an OpenDRIVE road ('road' and "
+                        "'entities' in its system: docs/opendrive.md)", "system")]  # fmt: skip
+    for key, name in refs:
+        if isinstance(name, str) and road is not None and name not in road.entities:
+            path = ("execute", i, "params", key) + (("entity",) if key == "relative" else ())
+            out.append(Problem(path, f"unknown entity {name!r}{did_you_mean(name, list(road.entities))}", "system"))
+    return out
 
 
 def _road_case(spec: SystemSpec) -> tuple[RoadCase | None, Problem | None]:

@@ -315,6 +315,7 @@ class Entity:
     position: Mapping[str, Any] | None = None
     speed: Any = 0.0
     controller: Any = False
+    distance: Mapping[str, Any] | None = None
 
     @property
     def front(self) -> float:
@@ -502,9 +503,41 @@ def entities_of(raw: Any, where: str = "/system/entities") -> dict[str, Entity]:
         category = spec.get("category", "car")
         if category not in CATEGORIES:
             raise OpenDriveError(f"{at}/category: {category!r} is none of {', '.join(CATEGORIES)}")
+        distance = spec.get("distance")
+        if distance is not None and not isinstance(distance, Mapping):
+            raise OpenDriveError(f"{at}/distance: expected an object (a LongitudinalDistanceAction's attributes)")
         out[name] = Entity(name, category=category, position=spec.get("position"), speed=spec.get("speed", 0.0),
-                           controller=spec.get("controller", False), **values)  # fmt: skip
+                           controller=spec.get("controller", False), distance=distance, **values)  # fmt: skip
     return out
+
+
+def _keep_distance(network: Network, entities: Mapping[str, Entity], name: str, pose: Pose, spec: Mapping[str, Any],
+                   poses: Mapping[str, Pose], speeds: Mapping[str, float], where: str) -> Pose:  # fmt: skip
+    """*pose* moved along its lane to the distance an Init LongitudinalDistanceAction asks from another entity:
+    ``{"entityRef", "distance" | "timeGap", "freespace" = false, "displacement" = "trailingReferencedEntity"}``;
+    a time gap is counted at the speed of the entity behind (docs/opendrive.md)."""
+    ref = spec.get("entityRef")
+    if not isinstance(ref, str) or ref not in poses:
+        raise OpenDriveError(f"{where}/entityRef: {ref!r} is not an entity placed before (placed: {', '.join(poses) or 'none yet'})")
+    other = poses[ref]
+    road = network.road(other.road)
+    sign = 1.0 if road.forward(other.lane) else -1.0
+    side = spec.get("displacement", "trailingReferencedEntity")
+    if side not in ("trailingReferencedEntity", "leadingReferencedEntity", "any"):
+        raise OpenDriveError(f"{where}/displacement: {side!r} is not trailingReferencedEntity, leadingReferencedEntity or any")
+    ahead = side == "leadingReferencedEntity" or (side == "any" and pose.road == other.road and sign * (pose.s - other.s) > 0)
+    if "distance" in spec:
+        gap = _number(spec["distance"], f"{where}/distance")
+    elif "timeGap" in spec:
+        gap = _number(spec["timeGap"], f"{where}/timeGap") * (speeds[ref] if ahead else speeds[name])
+    else:
+        raise OpenDriveError(f"{where}: give 'distance' or 'timeGap'")
+    if spec.get("freespace", False):
+        me, them = entities[name], entities[ref]
+        gap += (them.front + me.rear) if ahead else (me.front + them.rear)
+    if pose.road != other.road:
+        raise OpenDriveError(f"{where}: {name!r} and {ref!r} are on different roads")
+    return network.lane_pose(pose.road, pose.lane, other.s + sign * (gap if ahead else -gap), pose.offset)
 
 
 def _speed(entity: Entity, speeds: Mapping[str, float], where: str) -> float:
@@ -571,6 +604,8 @@ def _road_case(xodr: str, entities_raw: Any, where: str) -> RoadCase:
             message = str(exc)
             raise OpenDriveError(message if message.startswith(where) else f"{at}/position: {message}") from None
         speeds[name] = _speed(entity, speeds, at)
+        if entity.distance is not None:
+            pose = _keep_distance(network, entities, name, pose, entity.distance, poses, speeds, f"{at}/distance")
         lane, pos, lateral = place(net, entity, pose, f"{at}/position")
         poses[name] = pose
         placed[name] = Placed(entity, pose, lane, pos, lateral, speeds[name])

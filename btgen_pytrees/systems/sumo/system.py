@@ -291,6 +291,8 @@ class SumoSystem:
         """Entities driven storyboard-exactly: no car-following, no lane changes of their own (speed and lane-change mode 0)."""
         self.poses: dict[str, Pose] = {}  # entity -> its pose on the road at the last step read (road cases)
         self._since: dict[str, float] = {}  # entity -> time since which it stands still
+        self.commanded: dict[str, float] = {}  # entity -> the speed last commanded (storyboard-exact: what it drives)
+        self.lateral: dict[str, float] = {}  # entity -> road t its reference point moves to in SUMO's next step
         self._road_keys: list[tuple[str, dict[str, str]]] = []
         self._pair_keys: list[tuple[str, str, dict[str, str]]] = []
         self.scenario = scenario
@@ -385,6 +387,8 @@ class SumoSystem:
         return self.time
 
     def tick(self) -> None:
+        if self.lateral:
+            self._move_sideways()
         self._step()
 
     def close(self) -> None:
@@ -459,7 +463,8 @@ class SumoSystem:
             if vid in self.exact:  # storyboard-exact: it keeps its speed and lane until an action changes them
                 vehicle.setSpeedMode(vid, 0)
                 vehicle.setLaneChangeMode(vid, 0)
-                vehicle.setSpeed(vid, vehicle.getSpeed(vid))
+                self.commanded[vid] = vehicle.getSpeed(vid)
+                vehicle.setSpeed(vid, self.commanded[vid])
             self.sizes[vid] = (vehicle.getLength(vid), vehicle.getWidth(vid))
         self.results = vehicle.getAllSubscriptionResults() if self.sizes else {}
         self.vehicle_count = vehicle.getIDCount()
@@ -589,17 +594,11 @@ class SumoSystem:
         if r is None or self.road is None or _LANE_ID not in r:
             return None
         entity = self.road.entities[vid]
-        lane = self.road.net.lanes.get(r[_LANE_ID])
-        h = math.radians(90.0 - r[_ANGLE])
+        h = math.radians(90.0 - r[_ANGLE])  # SUMO's heading of the vehicle: its front and back bumper's line
         cy = entity.center[1]
-        if lane is not None and lane.length > 0 and r[_LANE_POSITION] * lane.shape_length() / lane.length >= entity.front:
-            px, py, lh = lane.point(r[_LANE_POSITION] * lane.shape_length() / lane.length - entity.front)
-            side = r[_LATERAL] - cy
-            x, y = px - side * math.sin(lh), py + side * math.cos(lh)
-        else:  # on a junction, or the vehicle reaches back over its lane's start: along its own axis
-            fx, fy = r[_POSITION]
-            x = fx - entity.front * math.cos(h) + cy * math.sin(h)
-            y = fy - entity.front * math.sin(h) - cy * math.cos(h)
+        fx, fy = r[_POSITION]  # the front bumper's middle; the reference point is `front` behind it on that line
+        x = fx - entity.front * math.cos(h) + cy * math.sin(h)
+        y = fy - entity.front * math.sin(h) - cy * math.cos(h)
         last = self.poses.get(vid)
         found = self.road.network.locate(x, y, (last.road, last.s) if last is not None else None)
         if found is None:
@@ -705,6 +704,49 @@ class SumoSystem:
         else:
             self._call(v.setSpeedMode, vid, self.taken[vid][0])
         self._call(v.setSpeed, vid, max(float(speed), 0.0))
+        self.commanded[vid] = max(float(speed), 0.0)
+
+    # -- motion in OpenDRIVE terms (the actions of docs/opendrive.md) ------------------------------
+    def move_sideways(self, vid: str, t: float) -> None:
+        """Have entity *vid*'s reference point at road coordinate *t* after SUMO's next step (its ``s`` moves on
+        with its speed): the lateral motion of a lane change or a lane offset, one step at a time."""
+        self.lateral[vid] = float(t)
+
+    def _next_speed(self, vid: str) -> float:
+        """The speed *vid* drives SUMO's next step with: the one commanded when SUMO does not choose it (speed
+        mode 0), else the present one moved on by its acceleration."""
+        r = self.results.get(vid) or {}
+        v = self._lib.vehicle
+        if vid in self.commanded and self._call(v.getSpeedMode, vid) == 0:
+            return self.commanded[vid]
+        speed = float(r[_SPEED]) if _SPEED in r else float(self._call(v.getSpeed, vid))
+        return max(0.0, speed + float(self._call(v.getAcceleration, vid)) * self.tick_length)
+
+    def _move_sideways(self) -> None:
+        plans, self.lateral = self.lateral, {}
+        assert self.road is not None
+        for vid, t_next in plans.items():
+            pose = self.pose(vid)
+            if pose is None:
+                continue
+            road = self.road.network.roads[pose.road]
+            sign = 1.0 if abs(math.remainder(pose.h - road.reference(pose.s)[2], 2 * math.pi)) < math.pi / 2 else -1.0
+            step = self._next_speed(vid) * self.tick_length
+            scale = 1.0 - _curvature_at(road, pose.s) * pose.t
+            s_next = min(max(pose.s + sign * step / (scale if scale > 0.05 else 1.0), 0.0), road.length)
+            x, y, h = road.point(s_next, t_next)
+            heading = (h if sign > 0 else h + math.pi) + math.atan2(sign * (t_next - pose.t), step) if step > 0 else pose.h
+            self.place(vid, x, y, heading)
+
+    def place(self, vid: str, x: float, y: float, heading: float) -> None:
+        """Put entity *vid*'s reference point at world point ``(x, y)`` heading *heading* (rad) for SUMO's next
+        step: SUMO's ``moveToXY`` with its front bumper's place, on the lane there (its route kept where the
+        lane is on it)."""
+        assert self.road is not None
+        e = self.road.entities[vid]
+        c, s = math.cos(heading), math.sin(heading)
+        fx, fy = x + e.front * c - e.center[1] * s, y + e.front * s + e.center[1] * c
+        self._call(self._lib.vehicle.moveToXY, vid, "", -1, fx, fy, 90.0 - math.degrees(heading), 2)
 
     def change_lane(self, vid: str, lane: int, seconds: float, safe: bool) -> None:
         """Ask SUMO to move *vid* to *lane* and keep it there in its steps of the next *seconds* (none for 0).
@@ -774,6 +816,12 @@ class SumoSystem:
         finally:
             if self.timer:
                 self.timing["adapter"] += self.timer() - t0
+
+
+def _curvature_at(road: Any, s: float) -> float:
+    """The reference line's curvature at *s* (1/m, left +), from its heading half a metre either side."""
+    a, b = max(0.0, s - 0.5), min(road.length, s + 0.5)
+    return math.remainder(road.reference(b)[2] - road.reference(a)[2], 2 * math.pi) / (b - a) if b > a else 0.0
 
 
 def _road_number(road: str, case: RoadCase) -> float:

@@ -307,6 +307,9 @@ def test_an_activated_controller_brakes_where_the_storyboard_exact_entity_ran_in
     assert report.verdict == "pass", report.message
     # SUMO's own modes: its driver model for the speed only (with lane changes allowed too, it overtakes)
     assert read[-1] == (31, 0)
+    # its desired speed is the one it had (not the lane's limit): it never drives faster, and sim.time is the tick's
+    assert max(s["Ego.speed"] for s in signals) == pytest.approx(20.0, abs=1e-6)
+    assert [s["sim.time"] for s in signals] == pytest.approx([k / 10 for k in range(len(signals))])
     assert signals[-1]["Ego.speed"] < 0.1 and 2.5 <= signals[-1]["Ego.Lead.ds_free"] < 3  # stopped behind the car, minGap (2.5 m) away
 
 
@@ -415,3 +418,36 @@ def test_the_documented_controller_plugin_stops_the_ego_short_of_the_standing_ca
     assert main(["run", str(case), "--plugin", str(tmp_path / "aeb.py"), "--json", str(tmp_path / "r.json")]) == 0
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["verdict"] == "pass" and [e["status"] for e in report["execute"]] == ["success", "success"]
+
+
+def test_an_offset_into_the_next_lane_puts_the_vehicle_there_and_lane_offsets_keep_to_the_lane_named(tmp_path: pathlib.Path) -> None:
+    # ALKS 4.6.2's placement: a side vehicle on the ego's lane id with an offset that reaches into the next lane
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 20}}, 10.0),
+                "Side": entity({"RelativeLanePosition": {"entityRef": "Ego", "dLane": 0, "ds": 0, "offset": -3.5}}, 10.0)}  # fmt: skip
+    execute = [{"id": "O", "kind": "behavior", "action": "sumo.lane_offset",
+                "params": {"vehicle": "Side", "relative": {"entity": "Ego", "value": -2.5}, "shape": "sinusoidal", "max_lateral_acc": 1.0}}]  # fmt: skip
+    case = write_case(tmp_path, "road.xodr", entities, expect="!Ego.collided && !Side.collided", timeout=3, execute=execute)
+    report, signals, read = ticks(case, lambda ls: (ls.vehicle.getLaneID("Ego"), ls.vehicle.getLaneID("Side")))
+    assert report.verdict == "pass", report.message
+    assert read[0] == ("-7_1", "-7_0") and signals[0]["Side.lane_id"] == -2  # SUMO's lanes: side by side
+    assert signals[0]["Side.t"] == pytest.approx(-1.75 - 3.5, abs=0.01) and signals[0]["Ego.Side.dt"] == pytest.approx(-3.5, abs=0.01)
+    # the offset relative to Ego's (0) in the lane the position named (-1): -2.5 m from its centre, after
+    # pi * sqrt(1 / 2) s (the sinusoid's peak lateral acceleration is pi^2/2 change/T^2)
+    end = report.execute[0].end
+    assert end == pytest.approx(math.ceil(math.pi * math.sqrt(1.0 / 2) * 10) / 10)
+    k = round(end * 10)
+    assert signals[k]["Side.t"] == pytest.approx(-1.75 - 2.5, abs=0.03) and signals[k]["Side.lane_id"] == -2
+
+
+def test_the_generated_sumo_files_are_written_where_convert_asks(tmp_path: pathlib.Path) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    case = roads.road_case(str(tmp_path / "road.xodr"), {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 20}})})
+    out = tmp_path / "out"
+    out.mkdir()
+    written = roads.write_sumo_files(case, str(out))
+    assert sorted(pathlib.Path(p).suffix for p in written) == [".sumocfg", ".xml", ".xml"]
+    from btgen_pytrees.systems.sumo.scenario import read_scenario
+
+    scenario = read_scenario(str(next(out.glob("*.sumocfg"))))
+    assert scenario.problems == () and list(scenario.vehicles) == ["Ego"]

@@ -339,6 +339,12 @@ class RoadAction(SumoAction):
         return pose
 
 
+def _home(system: SumoSystem, vid: str, pose: Pose) -> int:
+    """The lane *vid*'s lane offsets refer to (:attr:`SumoSystem.home`), where it is on the same road, else its lane."""
+    home = system.home.get(vid)
+    return home[1] if home is not None and home[0] == pose.road else pose.lane
+
+
 class Sideways(RoadAction):
     """A lateral motion of the reference point from its road ``t`` to a target ``t`` with a shape (each tick
     the place for SUMO's next step): the base of ``sumo.lane_change`` and ``sumo.lane_offset``."""
@@ -374,6 +380,7 @@ class Sideways(RoadAction):
             self.feedback_message = f"{vid} is on lane {pose.lane if pose else 'none'}, not {self.lane}, at the end of the change"
             return _FAILURE
         self.feedback_message = f"{vid} on lane {self.lane} (t = {pose.t:.3f} m)"
+        system.home[vid] = (pose.road, self.lane)
         return _SUCCESS
 
 
@@ -418,19 +425,31 @@ class LaneOffset(Sideways):
 
     def target(self, system: SumoSystem, pose: Pose) -> tuple[float, int]:
         assert system.road is not None
-        road = system.road.network.roads[pose.road]
-        sign = 1.0 if road.forward(pose.lane) else -1.0
+        network = system.road.network
+        road = network.roads[pose.road]
+        lane = _home(system, self.params["vehicle"], pose)
+        sign = 1.0 if road.forward(lane) else -1.0
         if "offset" in self.params:
             offset = float(self.params["offset"])
         else:
-            ref = self.pose_of(system, self.params["relative"]["entity"])
-            ref_sign = 1.0 if system.road.network.roads[ref.road].forward(ref.lane) else -1.0
-            offset = ref.offset * ref_sign + float(self.params["relative"]["value"])
-        return road.lane_t(pose.lane, pose.s) + sign * offset, pose.lane
+            name = self.params["relative"]["entity"]
+            ref = self.pose_of(system, name)
+            ref_lane = _home(system, name, ref)
+            ref_road = network.roads[ref.road]
+            ref_sign = 1.0 if ref_road.forward(ref_lane) else -1.0
+            offset = (ref.t - ref_road.lane_t(ref_lane, ref.s)) * ref_sign + float(self.params["relative"]["value"])
+        return road.lane_t(lane, pose.s) + sign * offset, road.lane_at(pose.s, road.lane_t(lane, pose.s) + sign * offset) or lane
 
     def arrived(self, system: SumoSystem, vid: str) -> Status:
-        status = super().arrived(system, vid)
-        return _RUNNING if status is _SUCCESS and self.params.get("continuous", False) else status
+        pose = system.pose(vid)
+        if pose is None:
+            self.feedback_message = f"{vid} is on no lane of the road"
+            return _FAILURE
+        self.feedback_message = f"{vid} {pose.t - self.goal:+.3f} m from its offset (t = {pose.t:.3f} m)"
+        if abs(pose.t - self.goal) > 0.1:
+            return _FAILURE
+        return _RUNNING if self.params.get("continuous", False) else _SUCCESS
+
 
 
 class Teleport(RoadAction):
@@ -448,6 +467,7 @@ class Teleport(RoadAction):
         except OpenDriveError as exc:
             raise CommandError(str(exc)) from None
         system.place(vid, pose.x, pose.y, pose.h)
+        system.home[vid] = (pose.road, pose.lane)
         self.feedback_message = f"{vid} to road {pose.road} lane {pose.lane} s = {pose.s:.3f}"
 
 

@@ -27,7 +27,7 @@ from ...text import did_you_mean
 from .opendrive import OpenDriveError
 from .roads import RoadCase, road_case
 from .scenario import OPTIONS, Scenario, parse_options, read_scenario
-from .system import ATTRIBUTES, PAIR_ATTRIBUTES, ROAD_ATTRIBUTES, INSTALL_HINT, SIM_SIGNALS, SumoSystem, keep_simulations, kept_simulation, release_simulations, reuse_for, reuse_simulations, tick_problem
+from .system import ATTRIBUTES, PAIR_ATTRIBUTES, ROAD_ATTRIBUTES, ROAD_SIM_SIGNALS, INSTALL_HINT, SIM_SIGNALS, SumoSystem, keep_simulations, kept_simulation, release_simulations, reuse_for, reuse_simulations, tick_problem
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...model import TestCase
@@ -114,6 +114,7 @@ class SumoType:
             named = [v for v in vehicles if v in road.entities]
             signals += [f"{v}.{a}" for v in named for a in ROAD_ATTRIBUTES]
             signals += [f"{a}.{b}.{x}" for a in named for b in named if a != b for x in PAIR_ATTRIBUTES]
+            signals += list(ROAD_SIM_SIGNALS)
         writers = {f"{v}.{a}": w for v in vehicles for a, w in (("speed", "sumo.speed"), ("lane", "sumo.lane"))}
         return SystemInfo(tuple(signals), tuple(problems), {"scenario": scenario}, writers=writers)
 

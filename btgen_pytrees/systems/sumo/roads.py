@@ -445,7 +445,7 @@ def _unwrap(angle: float) -> float:
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
-def place(net: SumoNet, entity: Entity, pose: Pose, where: str) -> tuple[SumoLane, float, float]:
+def place(net: SumoNet, entity: Entity, pose: Pose, where: str, network: Network | None = None) -> tuple[SumoLane, float, float]:
     """Where SUMO puts *entity* whose reference point is at *pose*: ``(lane, pos of the front bumper, lateral)``.
 
     SUMO's position of a vehicle is its front bumper's middle on its lane, ``pos`` along SUMO's lane coordinate
@@ -455,9 +455,15 @@ def place(net: SumoNet, entity: Entity, pose: Pose, where: str) -> tuple[SumoLan
     shows the reference point where the OpenDRIVE geometry puts it (docs/opendrive.md "From OpenDRIVE to SUMO")."""
     c, s = math.cos(pose.h), math.sin(pose.h)
     mx, my = pose.x - entity.center[1] * s, pose.y + entity.center[1] * c  # on the box's middle line
-    found = net.lane_of(pose.road, pose.lane, mx, my)
+    lane_id = pose.lane
+    if network is not None:  # an offset that reaches into another lane: SUMO's vehicle is on that lane
+        road = network.roads.get(pose.road)
+        inside = road.lane_at(pose.s, pose.t) if road is not None else None
+        if inside is not None and net.by_origin.get(f"{pose.road}_{inside}"):
+            lane_id = inside
+    found = net.lane_of(pose.road, lane_id, mx, my)
     if found is None:
-        raise OpenDriveError(f"{where}: lane {pose.lane} of road {pose.road!r} is not a lane SUMO drives on "
+        raise OpenDriveError(f"{where}: lane {lane_id} of road {pose.road!r} is not a lane SUMO drives on "
                              "(netconvert imports driving lanes; this one is of another type)")  # fmt: skip
     lane, at, lateral = found
     pos = at + entity.front * lane.length / lane.shape_length()
@@ -606,7 +612,7 @@ def _road_case(xodr: str, entities_raw: Any, where: str) -> RoadCase:
         speeds[name] = _speed(entity, speeds, at)
         if entity.distance is not None:
             pose = _keep_distance(network, entities, name, pose, entity.distance, poses, speeds, f"{at}/distance")
-        lane, pos, lateral = place(net, entity, pose, f"{at}/position")
+        lane, pos, lateral = place(net, entity, pose, f"{at}/position", network)
         poses[name] = pose
         placed[name] = Placed(entity, pose, lane, pos, lateral, speeds[name])
     folder = os.path.dirname(net_path)
@@ -682,9 +688,12 @@ def write_sumo_files(case: RoadCase, out_dir: str) -> list[str]:
 
 
 def _inputs(config: str) -> list[str]:
+    """The files a generated ``.sumocfg`` names (its net, route and additional files; not its options' values)."""
     folder = os.path.dirname(config)
-    text = open(config, encoding="utf-8").read()
-    return [os.path.join(folder, name) for name in re.findall(r'value="([^"]+)"', text)]
+    with open(config, encoding="utf-8") as fh:
+        text = fh.read()
+    names = re.findall(r'<(?:net-file|route-files|additional-files) value="([^"]+)"', text)
+    return [os.path.join(folder, name) for value in names for name in value.split(",") if name]
 
 
 def entities_json(raw: Any) -> str:

@@ -64,7 +64,7 @@ from .scenario import Scenario
 if TYPE_CHECKING:  # pragma: no cover
     from ...contracts.environment import Environment
 
-__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "ROAD_ATTRIBUTES", "PAIR_ATTRIBUTES", "SIM_SIGNALS", "DEFAULTS", "libsumo_module", "INSTALL_HINT", "tick_problem",
+__all__ = ["SumoSystem", "CommandError", "ATTRIBUTES", "ROAD_ATTRIBUTES", "PAIR_ATTRIBUTES", "SIM_SIGNALS", "ROAD_SIM_SIGNALS", "DEFAULTS", "libsumo_module", "INSTALL_HINT", "tick_problem",
            "LOOKAHEAD", "reuse_simulations", "reuse_for", "kept_simulation", "keep_simulations",
            "release_simulations"]
 
@@ -77,6 +77,8 @@ PAIR_ATTRIBUTES = ("distance", "distance_free", "dx", "dy", "dx_free", "dy_free"
                    "dlane", "headway", "headway_free", "ttc", "ttc_free")  # fmt: skip
 """The signals of each ordered pair of entities A, B on an OpenDRIVE road, ``A.B.<attribute>`` (docs/opendrive.md)."""
 SIM_SIGNALS = ("sim.collisions", "sim.vehicles")
+ROAD_SIM_SIGNALS = ("sim.time",)
+"""The further signals of the simulation of a case on an OpenDRIVE road: ``sim.time``, SUMO's time of the tick (s)."""
 DEFAULTS = {"collision.action": "warn"}
 """SUMO options a run sets where neither the case's ``options`` nor its ``.sumocfg`` do. SUMO's own
 ``collision.action`` is ``teleport``: in the step of the collision the collider is moved hundreds of
@@ -291,6 +293,9 @@ class SumoSystem:
         """Entities driven storyboard-exactly: no car-following, no lane changes of their own (speed and lane-change mode 0)."""
         self.poses: dict[str, Pose] = {}  # entity -> its pose on the road at the last step read (road cases)
         self._since: dict[str, float] = {}  # entity -> time since which it stands still
+        self.home: dict[str, tuple[str, int]] = {n: (p.pose.road, p.pose.lane) for n, p in road.placed.items()} if road else {}
+        """Entity -> the OpenDRIVE road and lane its lane offsets refer to: the lane its position named, then the
+        lane of its last lane change or teleport (its reference point may be in another lane: an offset)."""
         self.commanded: dict[str, float] = {}  # entity -> the speed last commanded (storyboard-exact: what it drives)
         self.lateral: dict[str, float] = {}  # entity -> road t its reference point moves to in SUMO's next step
         self._road_keys: list[tuple[str, dict[str, str]]] = []
@@ -321,6 +326,7 @@ class SumoSystem:
         self._subscribe: dict[str, tuple[tuple[int, ...], bool]] = {}  # tracked vehicle -> (variables, its leader too)
         self._scene = True  # every vehicle's place and heading are read, for the replay page's scene
         self._sim_collisions = self._sim_vehicles = True  # sim.collisions and sim.vehicles are published
+        self._sim_time = road is not None  # sim.time (cases on an OpenDRIVE road)
         self.timer: Callable[[], float] | None = None
         """A clock (e.g. :func:`time.process_time`) to fill :attr:`timing` with; ``None``: no timing."""
         self.timing = dict.fromkeys(("start", "sumo", "adapter", "close"), 0.0)
@@ -531,6 +537,8 @@ class SumoSystem:
                     storage[ttc_key] = ttc
         if self._road_keys or self._pair_keys:
             self._publish_road(storage)
+        if self._sim_time:
+            storage[prefix + "sim.time"] = self.time
         if self._sim_collisions:
             storage[prefix + "sim.collisions"] = self.collisions
         if self._sim_vehicles:
@@ -567,6 +575,7 @@ class SumoSystem:
                 self._subscribe[vid] = (variables, keys["gap"] is not None or keys["ttc"] is not None)
         self._sim_collisions = wanted is None or "sim.collisions" in wanted
         self._sim_vehicles = wanted is None or "sim.vehicles" in wanted
+        self._sim_time = self.road is not None and (wanted is None or "sim.time" in wanted)
         self._road_keys, self._pair_keys = [], []
         if self.road is not None:
             named = [v for v in self.tracked if v in self.road.entities]
@@ -766,11 +775,15 @@ class SumoSystem:
 
     def control(self, vid: str, longitudinal: bool, lateral: bool) -> None:
         """Hand entity *vid* to SUMO's driver model (OpenSCENARIO's ActivateControllerAction): SUMO's default
-        speed mode (31) and its own speed where *longitudinal*, its default lane-change mode (1621) where
-        *lateral*; the other domain stays storyboard-exact."""
+        speed mode (31) and its own speed where *longitudinal* - its desired speed the speed it has now (its
+        speed factor set so: SUMO's drivers would otherwise speed up to the lane's limit) -, its default
+        lane-change mode (1621) where *lateral*; the other domain stays storyboard-exact."""
         v = self._lib.vehicle
         self.taken.pop(vid, None)
         if longitudinal:
+            speed, allowed = self.speed(vid), float(self._call(v.getAllowedSpeed, vid))
+            if speed >= HALTING and allowed > 0:  # it wants to drive on at the speed it has, not at the lane's limit
+                self._call(v.setSpeedFactor, vid, speed / allowed)
             self._call(v.setSpeedMode, vid, 31)
             self._call(v.setSpeed, vid, -1.0)
         if lateral:

@@ -109,7 +109,8 @@ def output_names(paths: Sequence[str], suffix: str) -> list[str]:
 
 def _safe_stem(path: str) -> str:
     name = os.path.basename(path.rstrip(os.sep))
-    stem = name[: -len(".json")] if name.endswith(".json") and len(name) > len(".json") else name
+    suffix = next((x for x in (".json", ".xosc") if name.endswith(x) and len(name) > len(x)), "")
+    stem = name[: -len(suffix)] if suffix else name
     stem = "".join("_" if ord(c) < 32 or ord(c) == 127 else c for c in stem)
     return stem if stem not in ("", ".", "..") else "case"
 

@@ -115,7 +115,7 @@ def _matches(pattern: str, path: Path) -> bool:
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
-    if file_path.suffix.lower() != ".json":
+    if file_path.suffix.lower() not in (".json", ".xosc"):  # an OpenSCENARIO file is a case too (docs/openscenario.md)
         return None
     config = parent.config
     if not (config.getoption("btgen_files") or config.getini("btgen_files")):

@@ -103,7 +103,8 @@ def test_the_schema_entry_is_the_one_the_entry_loop_implements() -> None:
     assert entry_rules() is not None
 
 
-@pytest.mark.parametrize("path", sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "examples").rglob("*.json")))
+@pytest.mark.parametrize("path", sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "examples").rglob("*.json")
+                                         if not p.name.endswith(".oracle.json")))  # an OpenSCENARIO sidecar is not a case
 def test_examples(path: str) -> None:
     raw = (ROOT / path).read_bytes()
     fast = check(raw, str(ROOT / path))

@@ -10,6 +10,7 @@ import math
 import os
 import pathlib
 import random
+import shutil
 
 import pytest
 
@@ -23,7 +24,7 @@ LOGICAL = CORPUS / "logical_scenarios"
 CONCRETE = LOGICAL / "concrete_scenarios"
 need_corpus = pytest.mark.skipif(not CONCRETE.is_dir(), reason="the ALKS corpus is not on this machine")
 
-ROAD = """<?xml version="1.0"?><OpenDRIVE><header revMajor="1" revMinor="4"/></OpenDRIVE>"""
+ROAD = (pathlib.Path(__file__).parent.parent / "examples" / "openscenario" / "straight_3lanes.xodr").read_text()
 
 
 def scenario(body: str, params: str = "", extra: str = "", rev: str = "2") -> str:
@@ -44,7 +45,7 @@ def scenario(body: str, params: str = "", extra: str = "", rev: str = "2") -> st
   <Storyboard>
     <Init><Actions>
       <Private entityRef="Ego">
-        <PrivateAction><TeleportAction><Position><LanePosition roadId="0" laneId="-1" s="10" offset="0"/></Position></TeleportAction></PrivateAction>
+        <PrivateAction><TeleportAction><Position><LanePosition roadId="1" laneId="-1" s="10" offset="0"/></Position></TeleportAction></PrivateAction>
         <PrivateAction><LongitudinalAction><SpeedAction><SpeedActionDynamics dynamicsShape="step" dynamicsDimension="time" value="0"/>
           <SpeedActionTarget><AbsoluteTargetSpeed value="20"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction>
       </Private>
@@ -81,6 +82,10 @@ PARAMS = """<ParameterDeclaration name="Decel" parameterType="double" value="4">
 <ParameterDeclaration name="Target" parameterType="double" value="36"/>"""
 
 
+needs_sumo = pytest.mark.skipif(os.environ.get("CI") != "true" and shutil.which("netconvert") is None,
+                                reason="the sumo extra is not installed (a road case's checks run netconvert)")
+
+
 def write(tmp_path: pathlib.Path, text: str, name: str = "s.xosc") -> str:
     (tmp_path / "road.xodr").write_text(ROAD)
     path = tmp_path / name
@@ -100,25 +105,30 @@ def test_storyboard_becomes_entries_with_triggers_and_stop(tmp_path):
     doc = read_openscenario(write(tmp_path, scenario(BRAKE, PARAMS, STOP)))
     by_id = {e["id"]: e for e in doc["execute"]}
     assert [by_id[i]["name"] for i in ("S", "A", "G", "M", "Brake")] == ["Story S", "Act A", "ManeuverGroup G", "Maneuver M", "Event Brake"]
-    assert by_id["A"]["after"] == ["S"] and by_id["A"]["when"] == "sim.time >= 1"
+    assert by_id["A"]["after"] == ["S"] and by_id["A"]["when"] == "sim_time >= 1"
+    # the run's time: a case signal a root ramp drives (the first entry, so every entry reads this tick's time)
+    assert doc["execute"][0] == {"id": "Clock", "kind": "behavior", "action": "ramp", "name": "Clock (the run's time)",
+                                 "params": {"signal": "sim_time", "to": 600.0, "duration": 600.0}}
     event = by_id["Brake"]
     assert (event["when"], event["edge"], event["delay"]) == ("abs(Ego.Lead.dx_free) < 30", "rising", 0.5)
     action = by_id["BrakeAction"]
     assert action["after"] == ["Brake"] and action["action"] == "sumo.speed"
-    assert action["params"] == {"vehicle": "Lead", "shape": "linear", "rate": 4.0, "to": 10.0}
+    # lowered onto sumo.speed: a linear ramp from the Lead's speed (0: its Init gives none) to 10 m/s at 4 m/s²
+    assert action["params"] == {"vehicle": "Lead", "to": 10.0, "duration": 2.5, "safe": False}
     # the state of the action the StopTrigger names: set when it starts and when it completes
     state = doc["stop"][0]["when"].split()[0]
-    assert doc["stop"] == [{"when": f"{state} == 2", "edge": "rising", "delay": 2.0}]
+    assert doc["stop"][0] == {"when": f"{state} == 2", "edge": "rising", "delay": 2.0}
     setters = [e for e in doc["execute"] if e["action"] == "set" and e["params"]["signal"] == state]
     assert [(s["params"]["value"], s["after"]) for s in setters] == [(1, ["Brake"]), (2, ["BrakeAction", setters[0]["id"]])]
     assert setters[1]["join"] == "all"
     # the storyboard runs until its StopTrigger: an entry that never succeeds keeps the timeline running
-    assert doc["execute"][0] == {"id": "Storyboard", "kind": "constraint", "action": "until", "params": {"expect": "false"},
+    assert doc["execute"][1] == {"id": "Storyboard", "kind": "constraint", "action": "until", "params": {"expect": "false"},
                                  "name": "Storyboard (until its StopTrigger)"}
+    assert doc["stop"][1] == {"when": "Ego.end_of_road"}  # SUMO removes a vehicle there: the run ends, and fails
     assert doc["signals"][state] == 0
     # the Init: places and speeds of the entities
     ego = doc["system"]["entities"]["Ego"]
-    assert ego["position"] == {"LanePosition": {"roadId": "0", "laneId": -1, "s": 10.0, "offset": 0.0}} and ego["speed"] == 20.0
+    assert ego["position"] == {"LanePosition": {"roadId": "1", "laneId": -1, "s": 10.0, "offset": 0.0}} and ego["speed"] == 20.0
     assert doc["system"]["entities"]["Lead"]["position"]["RelativeLanePosition"]["ds"] == 40.0
     # the default criteria: no collision of the ego, every started event completed
     criteria = {c["id"]: c for c in doc["oracle"]["criteria"]}
@@ -141,7 +151,7 @@ def test_condition_groups_are_or_of_and_with_latches_for_edges(tmp_path):
     latch = next(e for e in doc["execute"] if e["name"] == "Condition b")
     assert latch["when"] == "(Ego.speed < 5) && (Lead.speed < 5)" and latch["edge"] == "rising" and latch["after"] == ["M"]
     signal = latch["params"]["signal"]
-    assert by_id["Brake"]["when"] == f"((sim.time > 1) && {signal}) || (sim.time == 9)"
+    assert by_id["Brake"]["when"] == f"((sim_time > 1) && {signal}) || (sim_time == 9)"
 
 
 def test_override_priority_stops_the_other_events(tmp_path):
@@ -194,6 +204,15 @@ def test_unsafe_or_malformed_xml_is_refused(tmp_path, text, words):
     with pytest.raises(InvalidTestCase) as info:
         read_xml(str(path))
     assert words in str(info.value) and str(path) in str(info.value)
+
+
+def test_exit_2_on_the_command_line(tmp_path, capsys):
+    from btgen_pytrees.cli import main
+    path = write(tmp_path, scenario(BRAKE.replace("$Decel", "$Deccel"), PARAMS))
+    assert main(["validate", path]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: /OpenSCENARIO/Storyboard/Story[@name='S']/Act[@name='A']/ManeuverGroup[@name='G']" in err
+    assert "unknown parameter '$Deccel'" in err and "Traceback" not in err
 
 
 # -- parameters, expressions, constraints ------------------------------------------------------
@@ -279,7 +298,7 @@ def test_deterministic_distribution_is_the_product_in_order(tmp_path):
     assert [dict(p) for p in v.points()] == [{"Decel": d, "Target": t} for d in (1.0, 2.5, 4.0) for t in (10.0, 20.0)]
     doc = sweep.render({"Decel": 2.5, "Target": 20.0})
     brake = next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]
-    assert brake["rate"] == 2.5 and math.isclose(brake["to"], 20 / 3.6)
+    assert math.isclose(brake["to"], 20 / 3.6) and math.isclose(brake["duration"], 20 / 3.6 / 2.5)
     assert doc["system"]["road"] == "road.xodr"
 
 
@@ -339,9 +358,23 @@ def test_distribution_of_an_undeclared_parameter(tmp_path):
 
 # -- the corpus -----------------------------------------------------------------------------------
 
+WAITING = {  # scenarios whose motion needs a leaf the road system does not have yet (docs/openscenario.md "Motion")
+    "alks_scenario_4_1_2_swerving_lead_vehicle_template.xosc": "LaneOffsetAction",
+    "alks_scenario_4_2_3_crossing_pedestrian_template.xosc": "FollowTrajectoryAction",
+    "alks_scenario_4_6_2_lateral_detection_range_template.xosc": "LaneOffsetAction",
+}
+
+
 @need_corpus
 @pytest.mark.parametrize("name", sorted(p.name for p in CONCRETE.glob("*.xosc")) if CONCRETE.is_dir() else [])
 def test_corpus_scenario_converts_with_no_unsupported_element(name):
+    if name in WAITING:  # refused, clearly, at the action: never dropped
+        with pytest.raises(InvalidTestCase) as info:
+            read_openscenario(str(CONCRETE / name))
+        assert [p.message for p in info.value.problems] == [
+            f"{WAITING[name]} after the Init is not supported yet: the road system has no leaf for its motion "
+            '(docs/openscenario.md "Motion")']
+        return
     doc = read_openscenario(str(CONCRETE / name))
     assert doc["system"]["entities"] and doc["execute"] and doc["stop"]
     assert doc["oracle"]["criteria"][0]["expect"] == "not Ego.collided"
@@ -368,14 +401,17 @@ CORPUS_COUNTS = {  # the products the files define: sizes of their distributions
 
 @need_corpus
 def test_corpus_variation_counts_are_the_products():
+    from btgen_pytrees.openscenario.distributions import parse_distribution
+    from btgen_pytrees.openscenario.parameters import Scope
     assert sorted(CORPUS_COUNTS) == sorted(p.name for p in LOGICAL.glob("*.xosc"))
     for name, count in CORPUS_COUNTS.items():
-        sweep = read_openscenario(str(LOGICAL / name))
-        assert sweep.scenario_variations.total == count, name
-    small = read_openscenario(str(LOGICAL / "alks_scenario_4_1_2_swerving_lead_vehicle_variation.xosc"))
+        assert parse_distribution(read_xml(str(LOGICAL / name)), Scope()).count == count, name
+        if name.replace("variation", "template").replace("_reference", "") not in WAITING:
+            assert read_openscenario(str(LOGICAL / name)).scenario_variations.total == count, name
+    small = read_openscenario(str(LOGICAL / "alks_scenario_4_2_1_fully_blocking_target_variation.xosc"))
     v = small.scenario_variations
     points = list(v.points())
-    assert len(points) == v.count == 300
+    assert len(points) == v.count == 360
     rng = random.Random(3)
     for point in rng.sample(points, 3):  # a variation's document carries its values
         doc = small.render(dict(point))
@@ -412,8 +448,9 @@ def test_coverage_names_unsupported_elements_and_fits_its_schema(tmp_path, capsy
 def test_corpus_coverage_is_complete():
     from btgen_pytrees.openscenario.coverage import coverage
     data = coverage(str(CORPUS))
-    assert data["summary"]["files"] == 30 and data["summary"]["converting"] == 30
-    assert data["summary"]["fully_supported"] == data["summary"]["elements"]
+    assert data["summary"]["files"] == 30 and data["summary"]["converting"] == 30 - len(WAITING)
+    failing = {f["file"].rsplit("/", 1)[-1] for f in data["files"] if not f["converts"]}
+    assert failing == set(WAITING)
 
 
 @need_corpus
@@ -422,3 +459,97 @@ def test_docs_table_is_what_the_coverage_command_prints():
     text = (pathlib.Path(__file__).parent.parent / "docs" / "openscenario.md").read_text(encoding="utf-8")
     shown = text.split("<!-- coverage:alks:begin -->\n")[1].split("<!-- coverage:alks:end -->")[0]
     assert shown == markdown(coverage(str(CORPUS)))
+
+
+# -- the commands take .xosc; runs on SUMO ----------------------------------------------------------
+
+EXAMPLES = pathlib.Path(__file__).parent.parent / "examples" / "openscenario"
+
+
+@needs_sumo
+def test_every_command_reads_xosc_through_the_loader(tmp_path, capsys):
+    from btgen_pytrees.cli import main
+    from btgen_pytrees.load import load_json
+    path = write(tmp_path, scenario(BRAKE, PARAMS, STOP))
+    assert load_json(path)["execute"]
+    assert main(["validate", path]) == 0
+    assert "ok:" in capsys.readouterr().out
+    assert main(["show", path]) == 0
+    tree = capsys.readouterr().out
+    for label in ("Story S", "Act A", "ManeuverGroup G", "Maneuver M", "Event Brake", "Action BrakeAction"):
+        assert label in tree  # every element named in the view
+
+
+@needs_sumo
+def test_a_distribution_is_a_sweep_for_validate_and_expand(tmp_path, capsys):
+    import json
+
+    from btgen_pytrees.cli import main
+    write(tmp_path, scenario(BRAKE, PARAMS, STOP))
+    path = write(tmp_path, distribution("""<Deterministic><DeterministicSingleParameterDistribution parameterName="Decel">
+      <DistributionSet><Element value="-1"/><Element value="3"/><Element value="5"/></DistributionSet>
+    </DeterministicSingleParameterDistribution></Deterministic>"""), "v.xosc")
+    assert main(["validate", path]) == 0
+    assert "2 variations" in capsys.readouterr().out  # 3 defined, 1 breaks Decel's constraint
+    out = tmp_path / "out"
+    assert main(["expand", path, "--out-dir", str(out)]) == 0
+    written = sorted(p.name for p in out.glob("*.json"))
+    assert len(written) == 2
+    doc = json.loads((out / written[0]).read_text())
+    assert next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]["duration"] == round(10 / 3, 9)
+
+
+@needs_sumo
+def test_examples_run_on_sumo_to_their_verdicts(tmp_path, capsys):
+    from btgen_pytrees.cli import main
+    pytest.importorskip("libsumo")
+    # a braking lead and SUMO's driver model: the NCAP-like sidecar's impact criterion holds
+    assert main(["run", str(EXAMPLES / "braking_lead.xosc"), "--json", str(tmp_path / "b.json")]) == 0
+    import json
+    report = json.loads((tmp_path / "b.json").read_text())
+    ids = {o["id"]: o["verdict"] for o in report["oracles"]} if "oracles" in report else {}
+    assert report["verdict"] == "pass" and (not ids or ids.get("impact_speed") == "pass")
+    # an uncontrolled ego follows the storyboard exactly: it runs into the car cutting in
+    assert main(["run", str(EXAMPLES / "cut_in.xosc")]) == 1
+    assert "no_collision failed" in capsys.readouterr().out
+
+
+@needs_sumo
+def test_convert_round_trips_to_the_same_report_from_any_directory(tmp_path, monkeypatch, capsys):
+    import json
+
+    from btgen_pytrees.cli import main
+    pytest.importorskip("libsumo")
+    scenario_file = EXAMPLES / "braking_lead.xosc"
+    assert main(["run", str(scenario_file), "--json", str(tmp_path / "direct.json")]) == 0
+    out = tmp_path / "converted"
+    assert main(["convert", str(scenario_file), "--out-dir", str(out)]) == 0
+    written = capsys.readouterr().out
+    assert "braking_lead.json" in written and "straight_3lanes.xodr" in written
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    assert main(["run", str(out / "braking_lead.json"), "--json", "again.json"]) == 0
+    direct, again = (json.loads(p.read_text()) for p in (tmp_path / "direct.json", elsewhere / "again.json"))
+    for report in (direct, again):
+        report.pop("source", None)
+    assert direct == again
+    assert main(["convert", str(EXAMPLES / "braking_lead_variation.xosc"), "--out-dir", str(out)]) == 2
+    assert "use 'expand'" in capsys.readouterr().err
+
+
+@needs_sumo
+def test_pytest_plugin_collects_xosc_files(tmp_path):
+    import subprocess
+    import sys
+    for name in ("braking_lead.xosc", "straight_3lanes.xodr"):
+        shutil.copy(EXAMPLES / name, tmp_path / name)
+    inner = ('<Stochastic numberOfTestRuns="2" randomSeed="3"><StochasticDistribution parameterName="Gap_m">'
+             '<UniformDistribution><Range lowerLimit="12" upperLimit="40"/></UniformDistribution></StochasticDistribution></Stochastic>')
+    (tmp_path / "v.xosc").write_text(distribution(inner, "braking_lead.xosc"))
+    done = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:randomly", "-p", "no:cacheprovider",
+                           "--btgen-files=*.xosc"], cwd=tmp_path, capture_output=True, text=True, timeout=300)  # fmt: skip
+    items = [line for line in done.stdout.splitlines() if "::" in line]
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert items[0] == "braking_lead.xosc::braking_lead"
+    assert [i.split("[")[1].split(",")[0] for i in items[1:]] == ["sample=0", "sample=1"]  # one item per variation

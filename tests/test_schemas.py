@@ -72,6 +72,6 @@ def test_schema_still_rejects_what_is_not_a_parameter(capsys: Any) -> None:
             node = node[part]
         node[path[-1]] = value
         assert list(validator.iter_errors(document)), (path, value)
-    every_example = sorted((ROOT / "examples").rglob("*.json"))
+    every_example = sorted(p for p in (ROOT / "examples").rglob("*.json") if not p.name.endswith(".oracle.json"))  # not sidecars
     for example in every_example:
         assert [e.message for e in validator.iter_errors(json.loads(example.read_text(encoding="utf-8")))] == [], example

@@ -33,9 +33,9 @@ from .terminal import err, report_invalid
 
 __all__ = ["main", "MAX_JOBS"]
 
-COMMANDS = ("show", "validate", "run", "expand", "falsify", "schema", "coverage")
+COMMANDS = ("show", "validate", "run", "expand", "falsify", "schema", "convert", "coverage")
 _SUB_PARSERS = (show.add_parser, validate.add_parser, run.add_parser, sweep.add_parser, falsify.add_parser, schema.add_parser,
-                openscenario.add_parser)
+                openscenario.add_convert, openscenario.add_parser)
 """Each command's own sub-parser, in the order of :data:`COMMANDS` (``expand`` is the sweep's)."""
 
 

@@ -44,7 +44,8 @@ from .context import Checker
 from .control import finish_control
 from .document import build_case, rest_fits
 from .entries import STAND_IN, Entries, entry_validator
-from .read import NotStreamed, parse_json, read_file, stream
+from ..openscenario import is_openscenario
+from .read import NotStreamed, load_json, parse_json, read_file, stream
 from .template import is_parameterised, nominal
 from .values import suspicious, value_problems
 from .words import described, new_document, schema_problems
@@ -75,6 +76,8 @@ def load(source: str | os.PathLike[str] | Mapping[str, Any], *, registry: Regist
     """
     if isinstance(source, Mapping):
         return validate(source, "<dict>", registry, system)
+    if is_openscenario(source):  # converted to its document first (load_json)
+        return validate(load_json(source), os.fspath(source), registry, system)
     raw, where = read_file(source)
     registry = registry if registry is not None else default_registry()
     name = os.fspath(source)

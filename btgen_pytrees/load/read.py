@@ -11,6 +11,7 @@ from typing import Any, Callable, Iterable, Iterator, Protocol
 
 from ..errors import InvalidTestCase, Problem
 from ..model import DEFAULT_JOIN
+from ..openscenario import is_openscenario, read_openscenario
 from ..text import shorten
 from .limits import MAX_FILE_BYTES
 
@@ -36,7 +37,13 @@ def reject_constant(name: str) -> Any:
 
 
 def load_json(path: str | os.PathLike[str]) -> Any:
-    """Read a JSON file with the limits of a test case; problems raise :class:`InvalidTestCase`."""
+    """Read a JSON file with the limits of a test case; problems raise :class:`InvalidTestCase`.
+
+    An OpenSCENARIO file (``.xosc``) is read as the test-case document it converts to
+    (:func:`btgen_pytrees.openscenario.read_openscenario`): every command reads case files here,
+    so each takes ``.xosc`` as it takes ``.json``."""
+    if is_openscenario(path):
+        return read_openscenario(os.fspath(path))
     return parse_json(*read_file(path))
 
 

@@ -30,7 +30,7 @@ from .schema import inline_refs, schema
 from .variations import BLOCK_KEYS, RANGE_EPSILON, Point, Value, Variations, format_value, label
 
 __all__ = ["shape_problems", "meaning_problems", "count_problem", "collision_problems", "axis_size",
-           "MAX_VARIATIONS", "Sweep", "Variation", "is_parameterised", "has_variations", "prepare", "nominal"]
+           "MAX_VARIATIONS", "Sweep", "Variation", "is_parameterised", "has_variations", "prepare", "nominal", "rendered"]
 
 
 
@@ -117,6 +117,11 @@ def meaning_problems(doc: Mapping[str, Any], used: set[str]) -> Iterator[Problem
 
 def count_problem(doc: Mapping[str, Any], limit: int) -> Problem | None:
     """The variation count against *limit*, by arithmetic on a meaning-valid block."""
+    if rendered(doc) is not None:  # the product the front end's file defines, before anything is filtered
+        total = doc.scenario_variations.total  # type: ignore[attr-defined]
+        if total > limit:
+            return Problem(("variations",), f"{total:,} variations; the limit is {limit:,} (raise it with --max-variations)", "limit")
+        return None
     variations = Variations.parse(doc.get("variations"))
     sizes = [axis_size(a.spec) for a in variations.grid]
     count = math.prod(sizes) * (variations.samples if variations.randoms else 1)
@@ -135,6 +140,8 @@ def collision_problems(doc: Mapping[str, Any]) -> Iterator[Problem]:
     same case under different labels. Such a range is refused, naming the first two values
     that collide. A step well above both spacings cannot collide and is not scanned.
     """
+    if rendered(doc) is not None:
+        return
     for axis in Variations.parse(doc.get("variations")).grid:
         if axis.kind != "range" or all(isinstance(axis.spec[k], int) for k in ("from", "step")):
             continue
@@ -160,12 +167,12 @@ MAX_VARIATIONS = 10_000
 
 def is_parameterised(data: Any) -> bool:
     """Whether *data* needs this module: it has ``parameters`` or ``variations``."""
-    return type(data) is dict and ("parameters" in data or "variations" in data)
+    return (type(data) is dict or rendered(data) is not None) and ("parameters" in data or "variations" in data)
 
 
 def has_variations(data: Any) -> bool:
     """Whether *data* is a sweep (a ``variations`` block), i.e. ``run`` runs many cases."""
-    return type(data) is dict and "variations" in data
+    return (type(data) is dict or rendered(data) is not None) and "variations" in data
 
 
 @dataclass(frozen=True)
@@ -196,7 +203,16 @@ class Sweep:
     def __init__(self, data: Mapping[str, Any], source: str):
         self.source = source
         self.name: str = data["name"] if isinstance(data.get("name"), str) else ""
-        self.defaults: dict[str, Value] = dict(data.get("parameters", {}))
+        self.render = rendered(data)
+        """A front end's document of given values (an OpenSCENARIO distribution), or None."""
+        if self.render is not None:  # the front end gives the defaults, the variations and each document
+            self.defaults: dict[str, Value] = dict(data.defaults)  # type: ignore[attr-defined]
+            self.variations: Any = data.scenario_variations  # type: ignore[attr-defined]
+            self.template = {k: v for k, v in data.items() if k not in ("variations", "search")}
+            self.search: Mapping[str, Any] | None = data.get("search")
+            self.sites, self.problems = [], []
+            return
+        self.defaults = dict(data.get("parameters", {}))
         self.variations = Variations.parse(data.get("variations"))
         self.template = {k: v for k, v in data.items() if k not in ("variations", "search")}
         self.search: Mapping[str, Any] | None = data.get("search")
@@ -221,6 +237,8 @@ class Sweep:
         Without ``parameters`` the result is a plain case, so a literal ``$`` (written ``$$``)
         stays literal when it is loaded again.
         """
+        if self.render is not None:
+            return self.render(values)  # type: ignore[no-any-return]
         doc = substitute(self.template, self.sites, values)
         doc.pop("parameters", None)
         return doc
@@ -231,7 +249,15 @@ class Sweep:
             yield Variation(index, point, values, self.document(values))
 
 
+def rendered(data: Any) -> Any:
+    """The document-maker of a front end's sweep (``render(values) -> document``: an OpenSCENARIO
+    distribution converts its scenario again for each variation), or None for a JSON template."""
+    return getattr(data, "render", None)
+
+
 def prepare(data: Mapping[str, Any], source: str) -> Sweep:
+    if rendered(data) is not None:
+        return Sweep(data, source)
     problems = shape_problems(data)
     if problems:
         raise InvalidTestCase(problems, source)

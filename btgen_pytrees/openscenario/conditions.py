@@ -64,11 +64,14 @@ class ConditionWriter:
         state: ``(element type, name, state, node) -> expression`` for StoryboardElementStateCondition
         variable: ``(name, node) -> signal`` for VariableCondition
         position: ``(Position node) -> (x, y)`` world coordinates, for ReachPosition/Distance
+        clock: ``() -> signal`` of the run's time, for SimulationTimeCondition
     """
 
     def __init__(self, scope: Scope, entities: list[str], state: Callable[[str, str, str, Node], str],
-                 variable: Callable[[str, Node], str], position: Callable[[Node], tuple[float, float]] | None = None):  # fmt: skip
+                 variable: Callable[[str, Node], str], position: Callable[[Node], tuple[float, float]] | None = None,
+                 clock: Callable[[], str] = lambda: "sim.time"):  # fmt: skip
         self.scope, self.entities, self.state, self.variable, self.position = scope, entities, state, variable, position
+        self.clock = clock
 
     def condition(self, node: Node) -> Condition:
         name = self.scope.text(node, "name") or ""
@@ -97,7 +100,7 @@ class ConditionWriter:
     def by_value(self, c: Node) -> str:
         tag = c.tag
         if tag == "SimulationTimeCondition":
-            return f"sim.time {self.rule(c)} {number(self.scope.number(c, 'value'))}"
+            return f"{self.clock()} {self.rule(c)} {number(self.scope.number(c, 'value'))}"
         if tag == "StoryboardElementStateCondition":
             kind = self.scope.text(c, "storyboardElementType") or ""
             ref = self.scope.text(c, "storyboardElementRef") or ""

@@ -203,10 +203,12 @@ class ScenarioSweep(dict):  # type: ignore[type-arg]
         return (dict, (dict(self),))
 
 
-def read_openscenario(path: str, options: Options | None = None, given: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """The document of the OpenSCENARIO file *path* (a :class:`ScenarioSweep` for a distribution)."""
+def read_openscenario(path: str, options: Options | None = None, given: Mapping[str, Any] | None = None,
+                      oracle: str | None = None) -> dict[str, Any]:  # fmt: skip
+    """The document of the OpenSCENARIO file *path* (a :class:`ScenarioSweep` for a distribution);
+    *oracle*: a sidecar file to use instead of ``NAME.oracle.json`` beside it."""
     root = read_xml(path)
-    sidecar = read_sidecar(path)
+    sidecar = read_sidecar(path, oracle)
     options = sidecar.options(options)
     if root.tag != "OpenSCENARIO":
         raise InvalidTestCase([Problem((root.tag,), f"the root element is {root.tag}, not OpenSCENARIO", CAUSE)], path)
@@ -236,8 +238,7 @@ def _sweep(root: Node, path: str, options: Options, sidecar: Sidecar) -> Scenari
     if not os.path.isfile(scenario):
         raise InvalidTestCase([problem(file_node, f"scenario file {distribution.scenario!r} not found (looked for {scenario!r})")], path)
     scenario_root = read_xml(scenario)
-    scenario_sidecar = read_sidecar(scenario)
-    sidecar = sidecar if sidecar.found else scenario_sidecar
+    sidecar = sidecar if sidecar.found else read_sidecar(scenario)
     options = sidecar.options(options)
     document = convert_file(scenario, None, options, case_dir=here, root=scenario_root)
     declarations = scenario_root.child("ParameterDeclarations")

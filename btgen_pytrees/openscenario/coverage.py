@@ -75,8 +75,9 @@ def coverage(top: str) -> dict[str, Any]:
                 _, catalogs = convert_scenario(root, path, options=Options())
         except XmlProblem as exc:
             problems.append(f"{'/' + '/'.join(exc.node.path) if exc.node else '/'}: {exc.message}")
-            if exc.node is not None:
-                exc.node.used = False
+            if exc.node is not None:  # the element the conversion stopped at, and what it holds: not supported
+                for node in exc.node.walk():
+                    node.used = False
         except InvalidTestCase as exc:
             problems.extend(f"{p.pointer}: {p.message}" for p in exc.problems)
         if not problems:

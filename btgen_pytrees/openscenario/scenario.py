@@ -24,6 +24,7 @@ import os
 from typing import Any, Mapping
 
 from .catalogs import Catalogs
+from .motion import Motion
 from .parameters import Scope
 from .storyboard import Timeline
 from .xmltree import Node, XmlProblem
@@ -32,7 +33,7 @@ __all__ = ["convert_scenario", "REVISIONS", "EGO_NAMES", "DEFAULT_TIMEOUT", "DEF
 
 REVISIONS = ((1, 0), (1, 1), (1, 2), (1, 3))
 EGO_NAMES = ("Ego", "ego", "hero")
-DEFAULT_TIMEOUT = 300.0
+DEFAULT_TIMEOUT = 600.0
 """Seconds a converted scenario may run before the verdict is ``timeout`` (its StopTrigger should end it first)."""
 DEFAULT_TICK = 0.1
 
@@ -169,7 +170,8 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     timeline.declare_variables(root.child("VariableDeclarations"))
     board = root.need_child("Storyboard")
     init = board.need_child("Init")
-    init_entries: list[str] = []
+    later: list[tuple[Node, str, str, dict[str, Any]]] = []  # Init actions that are entries at time 0
+    follow: list[tuple[Node, str, dict[str, Any]]] = []
     actions = init.need_child("Actions")
     for part in actions.children:
         part.use()
@@ -183,17 +185,15 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
                     entities[actor]["position"] = params["position"]
                 elif kind == "sumo.controller":  # active from time 0: SUMO's driver model (or the named controller)
                     entities[actor]["controller"] = params.get("name", True)
-                elif kind == "sumo.speed" and params.get("shape") == "step" and "speed" not in entities[actor]:
+                elif kind == "sumo.follow":  # places the entity (.motion)
+                    follow.append((pa, actor, params))
+                elif kind == "sumo.speed" and params.get("shape") == "step" and "speed" not in entities[actor] and (
+                        params.get("relative") is None or params["relative"]["type"] in ("delta", "factor")
+                        and not params["relative"].get("continuous")):  # fmt: skip
                     rel = params.get("relative")
-                    if rel is None:
-                        entities[actor]["speed"] = params["to"]
-                    else:
-                        if rel["type"] != "delta" or rel.get("continuous"):
-                            timeline.entries.append(_root_entry(timeline, actor, kind, params))
-                            continue
-                        entities[actor]["speed"] = {"entityRef": rel["entity"], "value": rel["value"], "type": "delta"}
+                    entities[actor]["speed"] = params["to"] if rel is None else {"entityRef": rel["entity"], "value": rel["value"], "type": rel["type"]}
                 else:
-                    init_entries.append(_root_entry(timeline, actor, kind, params)["id"])
+                    later.append((pa, actor, kind, params))
         elif part.tag == "GlobalAction":
             inner = part.only()
             if inner.tag in ("VariableAction", "ParameterAction"):
@@ -208,8 +208,18 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     for name, spec in entities.items():
         if "position" not in spec:
             raise XmlProblem(init, f"entity {name!r} has no TeleportAction in Init: its place at time 0 is unknown")
+    motion = Motion(entities, road, base)
+    motion.init_speeds()
+    for pa, actor, params in follow:
+        motion.place_at_distance(pa, actor, params)
+    timeline.motion = motion
+    for pa, actor, kind, params in later:
+        short = kind.split(".")[-1]
+        timeline.lowered(pa, actor, kind, params, f"init-{actor}-{short}", f"Init {actor} {short}", [])
     timeline.storyboard(board, [])
     timeline.resolve_states()
+    horizon = options.timeout if options.timeout is not None else DEFAULT_TIMEOUT
+    timeline.clock_entry(horizon)
     ego = options.ego or next((n for n in EGO_NAMES if n in entities), None)
     if options.ego is not None and options.ego not in entities:
         raise XmlProblem(entities_node, f"--ego {options.ego!r} names no entity (entities: {', '.join(names)})")
@@ -217,6 +227,11 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     if ego is not None:
         criteria.append({"id": "no_collision", "type": "record", "expect": f"not {ego}.collided",
                          "name": f"no collision involving the ego ({ego})"})  # fmt: skip
+        # SUMO removes a vehicle at the end of its road: the run ends there too, and fails, instead of
+        # running on without the ego (an error); the StopTrigger was not reached
+        criteria.append({"id": "stop_trigger", "type": "final", "expect": f"not {ego}.end_of_road",
+                         "name": f"the StopTrigger ended the run, not the end of the road ({ego})"})  # fmt: skip
+        timeline.stop.append({"when": f"{ego}.end_of_road"})
     for event in timeline.events:
         signal = timeline.state_of(event)
         criteria.append({"id": f"completed-{event.id}"[:64], "type": "final", "expect": f"{signal} != 1",
@@ -238,6 +253,3 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     doc["oracle"] = {"relation": "&&", "criteria": criteria}
     return doc, catalogs
 
-
-def _root_entry(timeline: Timeline, actor: str, kind: str, params: dict[str, Any]) -> dict[str, Any]:
-    return timeline.entry(f"init-{actor}-{kind.split('.')[-1]}", f"Init {actor} {kind.split('.')[-1]}", "behavior", kind, params, [])

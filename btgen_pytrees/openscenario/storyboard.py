@@ -85,7 +85,9 @@ class Timeline:
         self.elements: list[Element] = []
         self.variables: dict[str, str] = {}
         self.pending: list[tuple[Element, str, Node, list[Condition]]] = []  # state references resolved at the end
-        self.conditions = ConditionWriter(scope, entities, self._state_expression, self._variable)
+        self.conditions = ConditionWriter(scope, entities, self._state_expression, self._variable, clock=self.clock)
+        self.motion: Any = None  # the lowering of actions onto the SUMO leaves (.motion), set once the Init is read
+        self.clock_signal: str | None = None
         self.actions = ActionWriter(scope, entities, self._variable, controller)
         self.events: list[Element] = []
         self.state_refs: list[tuple[str, str, Node, str]] = []  # (type, name, node, placeholder)
@@ -134,6 +136,36 @@ class Timeline:
             return self.variables[name]
         known = ", ".join(sorted(self.variables)) or "none declared"
         raise XmlProblem(node, f"unknown variable {name!r} ({known})")
+
+    def clock(self) -> str:
+        """The signal of the run's time (SimulationTimeCondition): a case signal a root ``ramp`` drives
+        (value = seconds since the first tick), as the SUMO system gives no time signal."""
+        if self.clock_signal is None:
+            self.clock_signal = self.signal("sim_time", 0)
+        return self.clock_signal
+
+    def clock_entry(self, horizon: float) -> dict[str, Any] | None:
+        """The entry that drives the clock (first of the file, so every entry reads this tick's time)."""
+        if self.clock_signal is None:
+            return None
+        e = {"id": identifier("Clock", self.ids), "kind": "behavior", "action": "ramp",
+             "params": {"signal": self.clock_signal, "to": horizon, "duration": horizon}, "name": "Clock (the run's time)"}  # fmt: skip
+        self.entries.insert(0, e)
+        return e
+
+    def lowered(self, node: Node, actor: str, kind: str, params: dict[str, Any], name: str, label: str,
+                after: list[str]) -> dict[str, Any]:  # fmt: skip
+        """The entries of one action for one actor (:mod:`.motion`); the last one is the action's (its completion)."""
+        steps = self.motion.lower(node, actor, kind, params) if self.motion is not None else [(kind, params, 0.0)]
+        last: dict[str, Any] = {}
+        for leaf, p, wait in steps:
+            if wait > 0:
+                move = self.entry(f"{name}-motion", f"{label} (motion)", "behavior", leaf, p, after)
+                last = self.entry(name, f"{label} (its dynamics, {wait:g} s)", "constraint", "wait", {"duration": wait}, [move["id"]])
+            else:
+                last = self.entry(name, label, "behavior", leaf, p, after)
+            after = [last["id"]]
+        return last
 
     # -- entries ---------------------------------------------------------------------------------
     def entry(self, name: str, label: str, kind: str, action: str, params: dict[str, Any], after: list[str],
@@ -319,7 +351,7 @@ class Timeline:
                 for actor in actors:
                     kind, params = self.actions.private(body, actor)
                     label = f"Action {aname}" + (f" ({actor})" if len(actors) > 1 else "")
-                    a = self.entry(aname if len(actors) == 1 else f"{aname}-{actor}", label, "behavior", kind, params, [e["id"]])
+                    a = self.lowered(body, actor, kind, params, aname if len(actors) == 1 else f"{aname}-{actor}", label, [e["id"]])
                     element.actions.append(a["id"])
             elif body.tag == "GlobalAction":
                 inner = body.only()

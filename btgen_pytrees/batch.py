@@ -122,7 +122,11 @@ def job_validate(path: str, plugins: Sequence[str], max_variations: int | None =
     found = f"ok: {plural(len(case.entries), 'entry', 'entries')}, {plural(len(case.criteria), 'criterion', 'criteria')}"
     if has_variations(data):  # a sweep: every variation is checked
         limit = max_variations if max_variations is not None else MAX_VARIATIONS
-        found += f", {plural(load_sweep(data, registry=registry, max_variations=limit, source_name=path).count, 'variation')}"
+        sweep = load_sweep(data, registry=registry, max_variations=limit, source_name=path)
+        found += f", {plural(sweep.count, 'variation')}"
+        discarded = getattr(sweep.variations, "discarded", 0)  # an OpenSCENARIO distribution's (docs/openscenario.md)
+        if discarded:
+            found += f" (of {sweep.variations.total:,} the file defines: {discarded:,} {'breaks' if discarded == 1 else 'break'} the parameters' constraints)"
     return Outcome(path, ExitCode.OK, found, warnings=warning_lines(case))
 
 

@@ -490,7 +490,7 @@ def test_a_distribution_is_a_sweep_for_validate_and_expand(tmp_path, capsys):
       <DistributionSet><Element value="-1"/><Element value="3"/><Element value="5"/></DistributionSet>
     </DeterministicSingleParameterDistribution></Deterministic>"""), "v.xosc")
     assert main(["validate", path]) == 0
-    assert "2 variations" in capsys.readouterr().out  # 3 defined, 1 breaks Decel's constraint
+    assert "2 variations (of 3 the file defines: 1 breaks the parameters' constraints)" in capsys.readouterr().out
     out = tmp_path / "out"
     assert main(["expand", path, "--out-dir", str(out)]) == 0
     written = sorted(p.name for p in out.glob("*.json"))

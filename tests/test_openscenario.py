@@ -113,8 +113,7 @@ def test_storyboard_becomes_entries_with_triggers_and_stop(tmp_path):
     assert (event["when"], event["edge"], event["delay"]) == ("abs(Ego.Lead.dx_free) < 30", "rising", 0.5)
     action = by_id["BrakeAction"]
     assert action["after"] == ["Brake"] and action["action"] == "sumo.speed"
-    # lowered onto sumo.speed: a linear ramp from the Lead's speed (0: its Init gives none) to 10 m/s at 4 m/s²
-    assert action["params"] == {"vehicle": "Lead", "to": 10.0, "duration": 2.5, "safe": False}
+    assert action["params"] == {"vehicle": "Lead", "shape": "linear", "rate": 4.0, "to": 10.0}
     # the state of the action the StopTrigger names: set when it starts and when it completes
     state = doc["stop"][0]["when"].split()[0]
     assert doc["stop"][0] == {"when": f"{state} == 2", "edge": "rising", "delay": 2.0}
@@ -298,7 +297,7 @@ def test_deterministic_distribution_is_the_product_in_order(tmp_path):
     assert [dict(p) for p in v.points()] == [{"Decel": d, "Target": t} for d in (1.0, 2.5, 4.0) for t in (10.0, 20.0)]
     doc = sweep.render({"Decel": 2.5, "Target": 20.0})
     brake = next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]
-    assert math.isclose(brake["to"], 20 / 3.6) and math.isclose(brake["duration"], 20 / 3.6 / 2.5)
+    assert math.isclose(brake["to"], 20 / 3.6) and brake["rate"] == 2.5
     assert doc["system"]["road"] == "road.xodr"
 
 
@@ -358,10 +357,8 @@ def test_distribution_of_an_undeclared_parameter(tmp_path):
 
 # -- the corpus -----------------------------------------------------------------------------------
 
-WAITING = {  # scenarios whose motion needs a leaf the road system does not have yet (docs/openscenario.md "Motion")
-    "alks_scenario_4_1_2_swerving_lead_vehicle_template.xosc": "LaneOffsetAction",
+WAITING = {  # scenarios whose motion needs a leaf the road system does not have yet (docs/openscenario.md "Actions")
     "alks_scenario_4_2_3_crossing_pedestrian_template.xosc": "FollowTrajectoryAction",
-    "alks_scenario_4_6_2_lateral_detection_range_template.xosc": "LaneOffsetAction",
 }
 
 
@@ -372,8 +369,8 @@ def test_corpus_scenario_converts_with_no_unsupported_element(name):
         with pytest.raises(InvalidTestCase) as info:
             read_openscenario(str(CONCRETE / name))
         assert [p.message for p in info.value.problems] == [
-            f"{WAITING[name]} after the Init is not supported yet: the road system has no leaf for its motion "
-            '(docs/openscenario.md "Motion")']
+            f"{WAITING[name]} is not supported yet: the road system has no leaf for it "
+            '(docs/openscenario.md "Actions")']
         return
     doc = read_openscenario(str(CONCRETE / name))
     assert doc["system"]["entities"] and doc["execute"] and doc["stop"]
@@ -496,7 +493,7 @@ def test_a_distribution_is_a_sweep_for_validate_and_expand(tmp_path, capsys):
     written = sorted(p.name for p in out.glob("*.json"))
     assert len(written) == 2
     doc = json.loads((out / written[0]).read_text())
-    assert next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]["duration"] == round(10 / 3, 9)
+    assert next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]["rate"] == 3
 
 
 @needs_sumo

@@ -2,7 +2,8 @@
 
 ASAM OpenSCENARIO 1.2, clause 7.3 "Actions" (1.0: 8.3). Each supported private action becomes one
 of the SUMO leaves (``sumo.speed``, ``sumo.lane_change``, ``sumo.lane_offset``, ``sumo.teleport``,
-``sumo.follow``, ``sumo.controller``, ``sumo.trajectory``: docs/opendrive.md has their motion), the
+``sumo.follow``, ``sumo.controller``: docs/opendrive.md has their motion; ``sumo.trajectory`` has no
+leaf yet and :mod:`.motion` refuses it), the
 attributes evaluated (parameters and ``${...}`` expressions) and renamed to the leaves' params; a
 variable's set action becomes the built-in ``set`` of the variable's signal. Positions are passed
 as the position objects of the road system (one key, the OSC element name; attributes evaluated).
@@ -135,7 +136,7 @@ class ActionWriter:
                 dyn = inner.need_child("LaneOffsetActionDynamics")
                 params["shape"] = s.choice(dyn, "dynamicsShape", SHAPES)
                 if "maxLateralAcc" in dyn.attrs:
-                    params["rate"] = s.number(dyn, "maxLateralAcc")
+                    params["max_lateral_acc"] = s.number(dyn, "maxLateralAcc")
                 target = inner.need_child("LaneOffsetTarget").only()
                 if target.tag == "AbsoluteTargetLaneOffset":
                     params["offset"] = s.number(target, "value")
@@ -158,8 +159,8 @@ class ActionWriter:
             for attr in ("animation", "lighting"):  # 1.2: no effect on the motion
                 s.text(inner, attr)
             name = self.controller(actor)
-            if name is not None:
-                params["name"] = name
+            if name is not None:  # the sidecar's controller: a plugin's leaf, started here (docs/opendrive.md)
+                return name, {"vehicle": actor}
             return "sumo.controller", params
         if kind.tag == "RoutingAction":
             inner = kind.only()

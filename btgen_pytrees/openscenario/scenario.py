@@ -208,7 +208,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     for name, spec in entities.items():
         if "position" not in spec:
             raise XmlProblem(init, f"entity {name!r} has no TeleportAction in Init: its place at time 0 is unknown")
-    motion = Motion(entities, road, base)
+    motion = Motion(entities)
     motion.init_speeds()
     for pa, actor, params in follow:
         motion.place_at_distance(pa, actor, params)

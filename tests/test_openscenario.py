@@ -550,3 +550,29 @@ def test_pytest_plugin_collects_xosc_files(tmp_path):
     assert done.returncode == 0, done.stdout + done.stderr
     assert items[0] == "braking_lead.xosc::braking_lead"
     assert [i.split("[")[1].split(",")[0] for i in items[1:]] == ["sample=0", "sample=1"]  # one item per variation
+
+
+@need_corpus
+@needs_sumo
+def test_corpus_cut_in_events_start_on_the_tick_their_trigger_holds(tmp_path):
+    """ALKS 4.4.1: the controller's event at 3 s (SimulationTime), the cut-in on the first tick the free
+    longitudinal gap is below 30 m (rising), its lane change done when its sinusoidal dynamics end, the run
+    ended by the StopTrigger 10 s after that (seen one tick later: the stop is checked before the timeline)."""
+    import csv
+
+    from btgen_pytrees.cli import main
+    pytest.importorskip("libsumo")
+    out = tmp_path / "s.csv"
+    assert main(["run", str(CONCRETE / "alks_scenario_4_4_1_cut_in_no_collision_template.xosc"), "--signals-out", str(out)]) in (0, 1)
+    rows = list(csv.DictReader(out.open()))
+
+    def first(column: str, value: str) -> float:
+        return next(float(r["time"]) for r in rows if r[column] == value)
+
+    trigger = next(float(r["time"]) for r in rows if r["Ego.CutInVehicle.dx_free"] and abs(float(r["Ego.CutInVehicle.dx_free"])) < 30)
+    assert first("status:ActivateALKSControllerAction", "success") == pytest.approx(3.0)
+    assert first("status:CutInAction", "running") == pytest.approx(trigger)
+    lateral = abs(float(rows[0]["Ego.CutInVehicle.dt"]))  # one lane: the distance between the lanes' centres
+    done = first("status:CutInAction", "success")
+    assert done == pytest.approx(trigger + math.pi / 2 * lateral / 2.0, abs=0.1)  # rate 2 m/s peak, sinusoidal
+    assert float(rows[-1]["time"]) == pytest.approx(done + 10 + 0.1)

@@ -40,7 +40,8 @@ __all__ = ["expand", "output_names", "job_validate", "job_show", "job_run", "job
 
 
 def expand(paths: Iterable[str]) -> list[str]:
-    """Files as given, directories replaced by the ``*.json`` entries under them (recursive, sorted).
+    """Files as given, directories replaced by the ``*.json`` entries under them (recursive, sorted; an
+    OpenSCENARIO scenario's sidecar ``NAME.oracle.json`` is not a case).
 
     The walk is iterative (a tree 1,000 folders deep is fine) and does not
     follow symbolic links to directories (no loops). Every ``*.json`` entry that
@@ -69,10 +70,15 @@ def expand(paths: Iterable[str]) -> list[str]:
                     is_dir = False
                 if is_dir:
                     stack.append(item.path)
-                elif item.name.endswith(".json"):
+                elif item.name.endswith(".json") and not _sidecar(item.path):
                     found.append(item.path)
         out.extend(sorted(found, key=_path_key))
     return out
+
+
+def _sidecar(path: str) -> bool:
+    """``NAME.oracle.json``: an OpenSCENARIO scenario's pass criteria (docs/openscenario.md), not a case."""
+    return path.endswith(".oracle.json")
 
 
 def _path_key(path: str) -> tuple[str, ...]:

@@ -576,3 +576,9 @@ def test_corpus_cut_in_events_start_on_the_tick_their_trigger_holds(tmp_path):
     done = first("status:CutInAction", "success")
     assert done == pytest.approx(trigger + math.pi / 2 * lateral / 2.0, abs=0.1)  # rate 2 m/s peak, sinusoidal
     assert float(rows[-1]["time"]) == pytest.approx(done + 10 + 0.1)
+
+
+def test_a_directory_of_cases_leaves_out_the_sidecars():
+    from btgen_pytrees import batch
+    found = [os.path.basename(p) for p in batch.expand([str(EXAMPLES)])]
+    assert found == []  # the examples' .json files there are all sidecars of .xosc scenarios

@@ -105,10 +105,7 @@ def test_storyboard_becomes_entries_with_triggers_and_stop(tmp_path):
     doc = read_openscenario(write(tmp_path, scenario(BRAKE, PARAMS, STOP)))
     by_id = {e["id"]: e for e in doc["execute"]}
     assert [by_id[i]["name"] for i in ("S", "A", "G", "M", "Brake")] == ["Story S", "Act A", "ManeuverGroup G", "Maneuver M", "Event Brake"]
-    assert by_id["A"]["after"] == ["S"] and by_id["A"]["when"] == "sim_time >= 1"
-    # the run's time: a case signal a root ramp drives (the first entry, so every entry reads this tick's time)
-    assert doc["execute"][0] == {"id": "Clock", "kind": "behavior", "action": "ramp", "name": "Clock (the run's time)",
-                                 "params": {"signal": "sim_time", "to": 600.0, "duration": 600.0}}
+    assert by_id["A"]["after"] == ["S"] and by_id["A"]["when"] == "sim.time >= 1"  # the road system's time
     event = by_id["Brake"]
     assert (event["when"], event["edge"], event["delay"]) == ("abs(Ego.Lead.dx_free) < 30", "rising", 0.5)
     action = by_id["BrakeAction"]
@@ -121,7 +118,7 @@ def test_storyboard_becomes_entries_with_triggers_and_stop(tmp_path):
     assert [(s["params"]["value"], s["after"]) for s in setters] == [(1, ["Brake"]), (2, ["BrakeAction", setters[0]["id"]])]
     assert setters[1]["join"] == "all"
     # the storyboard runs until its StopTrigger: an entry that never succeeds keeps the timeline running
-    assert doc["execute"][1] == {"id": "Storyboard", "kind": "constraint", "action": "until", "params": {"expect": "false"},
+    assert doc["execute"][0] == {"id": "Storyboard", "kind": "constraint", "action": "until", "params": {"expect": "false"},
                                  "name": "Storyboard (until its StopTrigger)"}
     assert doc["stop"][1] == {"when": "Ego.end_of_road"}  # SUMO removes a vehicle there: the run ends, and fails
     assert doc["signals"][state] == 0
@@ -150,7 +147,7 @@ def test_condition_groups_are_or_of_and_with_latches_for_edges(tmp_path):
     latch = next(e for e in doc["execute"] if e["name"] == "Condition b")
     assert latch["when"] == "(Ego.speed < 5) && (Lead.speed < 5)" and latch["edge"] == "rising" and latch["after"] == ["M"]
     signal = latch["params"]["signal"]
-    assert by_id["Brake"]["when"] == f"((sim_time > 1) && {signal}) || (sim_time == 9)"
+    assert by_id["Brake"]["when"] == f"((sim.time > 1) && {signal}) || (sim.time == 9)"
 
 
 def test_override_priority_stops_the_other_events(tmp_path):

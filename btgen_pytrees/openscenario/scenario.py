@@ -218,8 +218,6 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
         timeline.lowered(pa, actor, kind, params, f"init-{actor}-{short}", f"Init {actor} {short}", [])
     timeline.storyboard(board, [])
     timeline.resolve_states()
-    horizon = options.timeout if options.timeout is not None else DEFAULT_TIMEOUT
-    timeline.clock_entry(horizon)
     ego = options.ego or next((n for n in EGO_NAMES if n in entities), None)
     if options.ego is not None and options.ego not in entities:
         raise XmlProblem(entities_node, f"--ego {options.ego!r} names no entity (entities: {', '.join(names)})")

@@ -86,8 +86,7 @@ class Timeline:
         self.variables: dict[str, str] = {}
         self.pending: list[tuple[Element, str, Node, list[Condition]]] = []  # state references resolved at the end
         self.conditions = ConditionWriter(scope, entities, self._state_expression, self._variable, clock=self.clock)
-        self.motion: Any = None  # the lowering of actions onto the SUMO leaves (.motion), set once the Init is read
-        self.clock_signal: str | None = None
+        self.motion: Any = None  # what an action needs beyond itself for its leaf (.motion), set once the Init is read
         self.actions = ActionWriter(scope, entities, self._variable, controller)
         self.events: list[Element] = []
         self.state_refs: list[tuple[str, str, Node, str]] = []  # (type, name, node, placeholder)
@@ -138,20 +137,8 @@ class Timeline:
         raise XmlProblem(node, f"unknown variable {name!r} ({known})")
 
     def clock(self) -> str:
-        """The signal of the run's time (SimulationTimeCondition): a case signal a root ``ramp`` drives
-        (value = seconds since the first tick), as the SUMO system gives no time signal."""
-        if self.clock_signal is None:
-            self.clock_signal = self.signal("sim_time", 0)
-        return self.clock_signal
-
-    def clock_entry(self, horizon: float) -> dict[str, Any] | None:
-        """The entry that drives the clock (first of the file, so every entry reads this tick's time)."""
-        if self.clock_signal is None:
-            return None
-        e = {"id": identifier("Clock", self.ids), "kind": "behavior", "action": "ramp",
-             "params": {"signal": self.clock_signal, "to": horizon, "duration": horizon}, "name": "Clock (the run's time)"}  # fmt: skip
-        self.entries.insert(0, e)
-        return e
+        """The signal of the run's time (SimulationTimeCondition): the road system's ``sim.time``."""
+        return "sim.time"
 
     def lowered(self, node: Node, actor: str, kind: str, params: dict[str, Any], name: str, label: str,
                 after: list[str]) -> dict[str, Any]:  # fmt: skip

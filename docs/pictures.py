@@ -11,11 +11,15 @@ project makes fails the suite.
 
 **Sample outputs.** A code block in README.md or docs/*.md right after a comment line
 
-* ``<!-- sample: ARGS -->`` is the output (stdout, then stderr) of ``python -m btgen_pytrees ARGS``;
+* ``<!-- sample: ARGS -->`` is the output of ``python -m btgen_pytrees ARGS`` (stdout and stderr as
+  a terminal shows them), after a line ``$ python -m btgen_pytrees ARGS`` when the block starts so;
 * ``<!-- sample -->`` is a session: each line ``$ python -m btgen_pytrees ARGS`` followed by its output;
-* ``<!-- sample file: PATH -->`` is the file PATH of this repository, as it is.
+* ``<!-- sample file: PATH -->`` is the file PATH of this repository, as it is;
+* ``<!-- sample (NAME = the block above): ARGS -->`` runs with the doc's previous code block as the
+  file NAME (a case shown in the doc, run as it is shown).
 
-Commands run in this process from the repository's root. Text is compared exactly.
+Commands run in this process, from the repository's root (or a scratch directory holding NAME).
+Text is compared exactly.
 
 **Pictures** (:data:`PICTURES`, recorded in ``docs/images/pictures.json``). Rendered pictures are
 not byte-stable across machines: Chromium's screenshots differ with its version and fonts,
@@ -25,6 +29,7 @@ can be compared exactly:
 * what the picture is drawn from, made again and compared byte for byte: the run's JSON report and
   its signals as CSV (run pictures), the sweep's JSON report (verdict maps), the ``dot`` source
   (tree pictures), the replay page's HTML and the steps taken in it (screenshots);
+* a SUMO run's data only where the SUMO (libsumo) that made the picture is the one installed;
 * matplotlib's own drawing, where the matplotlib that made the picture is the one installed: the
   figure as SVG, made again and compared byte for byte (the project's ``--plot`` SVG is
   deterministic for one matplotlib);
@@ -56,8 +61,9 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 IMAGES = ROOT / "docs" / "images"
 RECORD = IMAGES / "pictures.json"
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-SAMPLE = re.compile(r"^<!-- sample(?: file: (?P<file>\S+)|: (?P<args>.+?))? -->\n(?P<fence>```\w*\n)(?P<body>.*?)^```",
-                    re.S | re.M)  # fmt: skip
+SAMPLE = re.compile(r"^<!-- sample(?: \((?P<input>[\w.-]+) = the block above\))?(?: file: (?P<file>\S+)|: (?P<args>.+?))? -->\n"
+                    r"(?P<fence>```\w*\n)(?P<body>.*?)^```", re.S | re.M)  # fmt: skip
+FENCE = re.compile(r"^```\w*\n(.*?)^```", re.S | re.M)
 PROMPT = "$ python -m btgen_pytrees "
 
 
@@ -110,12 +116,10 @@ def cli(args: list[str], cwd: pathlib.Path = ROOT) -> str:
     """What ``python -m btgen_pytrees ARGS`` prints, stdout then stderr, run in this process from *cwd*."""
     from btgen_pytrees.cli import main
 
-    out, err = (io.TextIOWrapper(io.BytesIO(), encoding="utf-8", newline="\n") for _ in range(2))  # as a UTF-8 terminal
-    with inside(cwd), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+    both = io.TextIOWrapper(io.BytesIO(), encoding="utf-8", newline="\n", write_through=True)  # a UTF-8 terminal
+    with inside(cwd), contextlib.redirect_stdout(both), contextlib.redirect_stderr(both):
         main(args)
-    out.flush()
-    err.flush()
-    return (out.buffer.getvalue() + err.buffer.getvalue()).decode("utf-8")  # type: ignore[attr-defined]
+    return both.buffer.getvalue().decode("utf-8")  # type: ignore[attr-defined]
 
 
 # -- sample outputs ---------------------------------------------------------------------------------------
@@ -126,7 +130,13 @@ def sample_text(match: re.Match[str]) -> str:
     if match["file"]:
         return (ROOT / match["file"]).read_text(encoding="utf-8")
     if match["args"]:
-        return cli(shlex.split(match["args"]))
+        prompt = PROMPT + match["args"] + "\n" if match["body"].startswith(PROMPT) else ""
+        if not match["input"]:
+            return prompt + cli(shlex.split(match["args"]))
+        above = FENCE.findall(match.string[:match.start()])
+        with tempfile.TemporaryDirectory(prefix="btgen-sample-") as scratch:
+            (pathlib.Path(scratch) / match["input"]).write_text(above[-1], encoding="utf-8")
+            return prompt + cli(shlex.split(match["args"]), pathlib.Path(scratch))
     text = ""
     for line in match["body"].splitlines():
         if line.startswith(PROMPT):
@@ -237,6 +247,15 @@ def matplotlib_version() -> str | None:
     return str(matplotlib.__version__)
 
 
+def sumo_version() -> str | None:
+    """The installed libsumo's version: a SUMO run's numbers are compared only with the same SUMO's."""
+    if importlib.util.find_spec("libsumo") is None:
+        return None
+    from importlib import metadata
+
+    return metadata.version("libsumo")
+
+
 def drawn_from(run: str, scratch: pathlib.Path) -> dict[str, bytes]:
     """Everything *run*'s pictures are drawn from, made now: ``tree.dot``, ``report.json``, ``signals.csv``,
     ``replay.html``, and the figure as ``figure.svg`` when matplotlib is installed."""
@@ -292,11 +311,12 @@ def read_record() -> dict[str, Any]:
     return json.loads(RECORD.read_text(encoding="utf-8")) if RECORD.exists() else {"pictures": {}}  # type: ignore[no-any-return]
 
 
-def stale_pictures(skip: Callable[[Picture, list[str]], None] | None = None) -> list[str]:
+def stale_pictures(skip: Callable[[Picture, list[str], bool], None] | None = None) -> list[str]:
     """Every picture that is not what the project draws now, with why (see the module's docstring).
 
-    *skip(picture, missing)* is called for a picture that cannot be checked here (a missing component);
-    without it such a picture is reported stale.
+    *skip(picture, reasons, missing)* is called for a picture that cannot be checked here: a component is
+    missing (*missing* true), or it was drawn from a run of another SUMO than the one installed (a SUMO
+    release may move a vehicle by a millimetre). Without *skip* such a picture is reported stale.
     """
     record = read_record()
     stale = []
@@ -312,11 +332,12 @@ def stale_pictures(skip: Callable[[Picture, list[str]], None] | None = None) -> 
                 stale.append(f"{picture.file}: the file is not the one its record was written with")
                 continue
             missing = needs(picture)
-            if missing:
+            other = [f"SUMO {kept['sumo']} (here {sumo_version()})"] if not missing and kept.get("sumo", sumo_version()) != sumo_version() else []
+            if missing or other:
                 if skip is None:
-                    stale.append(f"{picture.file}: cannot be checked without {', '.join(missing)}")
+                    stale.append(f"{picture.file}: cannot be checked without {', '.join(missing or other)}")
                 else:
-                    skip(picture, missing)
+                    skip(picture, missing or other, bool(missing))
                 continue
             if picture.run not in made:
                 made[picture.run] = drawn_from(picture.run, pathlib.Path(tmp))
@@ -355,6 +376,8 @@ def make_pictures(kinds: set[str]) -> None:
             entry = picture_record(picture, made[picture.run])
             if "figure.svg" in entry:
                 entry["matplotlib"] = matplotlib_version()
+            if "sumo" in str(RUNS[picture.run]):
+                entry["sumo"] = sumo_version()
             entry["sha256"] = digest(target.read_bytes())
             record["pictures"][picture.file] = entry
             print(f"docs/images/{picture.file}: {entry['made_by']}")

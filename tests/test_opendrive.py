@@ -451,3 +451,41 @@ def test_the_generated_sumo_files_are_written_where_convert_asks(tmp_path: pathl
 
     scenario = read_scenario(str(next(out.glob("*.sumocfg"))))
     assert scenario.problems == () and list(scenario.vehicles) == ["Ego"]
+
+
+def test_a_pedestrian_crosses_the_road_along_its_trajectory_on_time(tmp_path: pathlib.Path) -> None:
+    # ALKS 4.2.3's crossing: from 3 m right of a lane's centre to 3 m left of it at 5 km/h, across two lanes
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    walker = {"length": 0.3, "width": 0.5, "center": [0.15, 0.0, 0.9], "category": "pedestrian"}
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}}, 10.0),
+                "Walker": {**walker, "position": {"LanePosition": {"roadId": "7", "laneId": -1, "s": 100, "offset": -3.0},
+                                                  "Orientation": {"h": 1.57, "type": "relative"}}}}  # fmt: skip
+    speed = 5 / 3.6
+    span = 6.0 / speed  # 4.32 s
+    vertices = [{"time": 0, "position": {"LanePosition": {"roadId": "7", "laneId": -1, "s": 100, "offset": -3.0}}},
+                {"time": span, "position": {"LanePosition": {"roadId": "7", "laneId": -1, "s": 100, "offset": 3.0}}}]  # fmt: skip
+    execute = [{"id": "X", "kind": "behavior", "action": "sumo.trajectory", "params": {"vehicle": "Walker", "vertices": vertices}}]
+    case = write_case(tmp_path, "road.xodr", entities, timeout=6, execute=execute)
+    report, signals, read = ticks(case, lambda ls: ls.vehicle.getLaneID("Walker"))
+    assert report.verdict == "pass", report.message
+    end = report.execute[0].end
+    assert end == pytest.approx(math.ceil(span * 10) / 10)
+    for k in range(1, round(end * 10) + 1):
+        t = -1.75 - 3.0 + 6.0 * min(1.0, k * 0.1 / span)
+        assert signals[k]["Walker.t"] == pytest.approx(t, abs=0.02) and signals[k]["Walker.s"] == pytest.approx(100, abs=0.02), k
+        assert signals[k]["Walker.lane_id"] == (-2 if t < -3.5 else -1 if t < 0 else 1)  # lanes -2, -1, then 1
+        assert signals[k]["Walker.speed"] == pytest.approx(speed)
+        assert signals[k]["Walker.heading"] == pytest.approx(0.5 + math.pi / 2, abs=1e-6)  # across the road (it runs at 0.5 rad)
+    assert read[round(end * 10)] == "7_0"  # SUMO has it on the lane the other way now
+
+
+def test_road_actions_name_entities_of_a_road_case(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}})}
+    execute = [{"id": "L", "kind": "behavior", "action": "sumo.lane_change", "params": {"vehicle": "Ego", "relative": {"entity": "Egoo", "value": 1}, "duration": 2}},
+               {"id": "F", "kind": "behavior", "action": "sumo.follow", "params": {"vehicle": "Ego", "entity": "Lead", "distance": 5}}]  # fmt: skip
+    case = write_case(tmp_path, "road.xodr", entities, execute=execute)
+    assert main(["validate", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "case.json: /execute/0/params/relative/entity: unknown entity 'Egoo' (did you mean 'Ego'?)" in err, err
+    assert "case.json: /execute/1/params/entity: unknown entity 'Lead'" in err

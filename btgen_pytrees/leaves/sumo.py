@@ -30,7 +30,7 @@ from ..systems.sumo.system import CommandError, SumoSystem
 from .simulated import SimulatedLeaf, reached
 
 __all__ = ["SumoAction", "Speed", "Release", "Lane", "Spawn", "Signal", "Controller", "LaneChange", "LaneOffset",
-           "Teleport", "Follow", "SHAPES", "PARAMS", "TIMEOUT", "register"]
+           "Teleport", "Follow", "Trajectory", "SHAPES", "PARAMS", "TIMEOUT", "register"]
 
 # the statuses as module constants: ``Status.SUCCESS`` is a look-up on the Enum class (~80 ns), every tick
 _SUCCESS, _FAILURE, _RUNNING = Status.SUCCESS, Status.FAILURE, Status.RUNNING
@@ -60,8 +60,11 @@ _ENTITY = {"type": "string", "minLength": 1, "maxLength": 200, "description": "a
 _RELATIVE = {"type": "object", "required": ["entity", "value"], "additionalProperties": False,
              "properties": {"entity": _ENTITY, "value": {"type": "number"}, "type": {"enum": ["delta", "factor"]},
                             "continuous": {"type": "boolean"}}}  # fmt: skip
-_POSITION = {"type": "object", "minProperties": 1, "maxProperties": 1, "propertyNames": {"enum": list(POSITION_KINDS)},
+_POSITION = {"type": "object", "minProperties": 1, "maxProperties": 2,
+             "propertyNames": {"enum": [*POSITION_KINDS, "Orientation"]},
              "description": "an OpenSCENARIO position object (docs/opendrive.md)"}  # fmt: skip
+_VERTEX = {"type": "object", "required": ["time", "position"], "additionalProperties": False,
+           "properties": {"time": {"type": "number"}, "position": _POSITION}}  # fmt: skip
 
 
 PARAMS: dict[str, dict[str, Any]] = {
@@ -78,6 +81,10 @@ PARAMS: dict[str, dict[str, Any]] = {
                               continuous={"type": "boolean"}),
                     "oneOf": [{"required": ["offset"]}, {"required": ["relative"]}]},  # fmt: skip
     "teleport": _params(["vehicle", "position"], vehicle=_VEHICLE, position=_POSITION),
+    "trajectory": _params(["vehicle", "vertices"], vehicle=_VEHICLE,
+                          vertices={"type": "array", "minItems": 1, "maxItems": 10000, "items": _VERTEX},
+                          closed={"type": "boolean"}, following={"enum": ["position", "follow"]},
+                          time_scale=_POSITIVE, time_offset={"type": "number"}, absolute={"type": "boolean"}),
     "follow": {**_params(["vehicle", "entity"], vehicle=_VEHICLE, entity=_ENTITY, distance={"type": "number", "minimum": 0},
                          time_gap={"type": "number", "minimum": 0}, freespace={"type": "boolean"},
                          displacement={"enum": ["trailingReferencedEntity", "leadingReferencedEntity", "any"]},
@@ -471,6 +478,63 @@ class Teleport(RoadAction):
         self.feedback_message = f"{vid} to road {pose.road} lane {pose.lane} s = {pose.s:.3f}"
 
 
+class Trajectory(RoadAction):
+    """``sumo.trajectory {vehicle, vertices: [{time, position}, ...], closed = false, following = position,
+    time_scale = 1, time_offset = 0, absolute = false}``: OpenSCENARIO's FollowTrajectoryAction with a polyline
+    and timing.
+
+    Vertex *k* is a position object (relative ones against the entities' places when the action starts)
+    that the reference point reaches at ``time * time_scale + time_offset`` s after the action started
+    (``absolute``: at that simulation time). Between vertices it moves along the straight segment at the
+    segment's speed, heading along it; ``closed`` goes back to the first vertex at the last time plus the
+    first segment's duration. Each tick puts it where the polyline says it is at the end of SUMO's next
+    step; its speed is that segment's (SUMO's ``E.speed``), kept after the last vertex. ``following:
+    follow`` (steering along it) is run as ``position``. Succeeds when the last vertex's time is reached."""
+
+    def begin(self, system: SumoSystem) -> None:
+        vid, p = self.params["vehicle"], self.params
+        self.pose_of(system, vid)
+        assert system.road is not None
+        poses = {e: q for e in system.road.entities if system.present(e) and (q := system.pose(e)) is not None}
+        scale, offset = float(p.get("time_scale", 1.0)), float(p.get("time_offset", 0.0))
+        points: list[tuple[float, float, float]] = []
+        for i, vertex in enumerate(p["vertices"]):
+            try:
+                pose = resolve(system.road.network, vertex["position"], poses, f"vertices/{i}/position")
+            except OpenDriveError as exc:
+                raise CommandError(str(exc)) from None
+            points.append((float(vertex["time"]) * scale + offset, pose.x, pose.y))
+        if p.get("closed", False) and len(points) > 1:
+            first, second, last = points[0], points[1], points[-1]
+            points.append((last[0] + (second[0] - first[0]), first[1], first[2]))
+        if any(b[0] < a[0] for a, b in zip(points, points[1:])):
+            raise CommandError("the vertices' times must not decrease")
+        self.points = points
+
+    def step(self, system: SumoSystem) -> Status:
+        vid = self.params["vehicle"]
+        if not system.present(vid):
+            self.feedback_message = system.absent_reason(vid)
+            return _FAILURE
+        at = self.elapsed() if not self.params.get("absolute", False) else system.now()
+        points = self.points
+        if reached(at, points[-1][0]):
+            self.feedback_message = f"{vid} at the trajectory's last vertex"
+            return _SUCCESS
+        then = at + system.tick_length
+        if then >= points[0][0]:
+            i = max(0, min(len(points) - 2, next((k for k in range(len(points) - 1) if then < points[k + 1][0]), len(points) - 2)))
+            (t0, x0, y0), (t1, x1, y1) = points[i], points[min(i + 1, len(points) - 1)]
+            share = 1.0 if t1 <= t0 else min(1.0, max(0.0, (then - t0) / (t1 - t0)))
+            length = math.hypot(x1 - x0, y1 - y0)
+            pose = system.pose(vid)
+            heading = math.atan2(y1 - y0, x1 - x0) if length > 1e-9 else (pose.h if pose is not None else 0.0)
+            system.place(vid, x0 + (x1 - x0) * share, y0 + (y1 - y0) * share, heading)
+            system.set_speed(vid, length / (t1 - t0) if t1 > t0 else 0.0, False)
+        self.feedback_message = f"{vid} following its trajectory"
+        return _RUNNING
+
+
 class Follow(RoadAction):
     """``sumo.follow {vehicle, entity, distance | time_gap, freespace = false, displacement =
     trailingReferencedEntity, continuous = false, max_accel?, max_decel?, max_speed?}``: OpenSCENARIO's
@@ -540,9 +604,11 @@ _DESCRIPTIONS = {
     "lane_offset": "move an entity of an OpenDRIVE road sideways within its lane with a shape (LaneOffsetAction)",
     "teleport": "put an entity of an OpenDRIVE road at a position (TeleportAction)",
     "follow": "keep an entity of an OpenDRIVE road at a distance or time gap from another (LongitudinalDistanceAction)",
+    "trajectory": "move an entity of an OpenDRIVE road along a polyline with times (FollowTrajectoryAction)",
 }
 _LEAVES = {"speed": Speed, "release": Release, "lane": Lane, "spawn": Spawn, "signal": Signal, "controller": Controller,
-           "lane_change": LaneChange, "lane_offset": LaneOffset, "teleport": Teleport, "follow": Follow}
+           "lane_change": LaneChange, "lane_offset": LaneOffset, "teleport": Teleport, "follow": Follow,
+           "trajectory": Trajectory}
 
 
 def register(registry: Registry) -> Registry:

@@ -187,7 +187,7 @@ class SumoType:
         return SumoSystem(scenario, options, case.tick, tracked, spawns=bool(spawned), road=road)
 
 
-_ROAD_ACTIONS = ("lane_change", "lane_offset", "teleport", "follow")
+_ROAD_ACTIONS = ("lane_change", "lane_offset", "teleport", "follow", "trajectory")
 
 
 def _check_road_action(road: RoadCase | None, i: int, action: str, params: Mapping[str, Any]) -> list[Problem]:

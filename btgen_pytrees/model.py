@@ -12,6 +12,7 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 from .expressions import Expression
+from .formulas import Formula
 
 __all__ = ["Entry", "Control", "StopCondition", "Criterion", "TestCase", "SystemSpec", "label", "DEFAULT_TICK",
            "DEFAULT_TIMEOUT", "DEFAULT_JOIN", "tick_count", "EDGES", "STATES", "state_signal"]
@@ -179,9 +180,12 @@ class Criterion:
 
     Attributes:
         id, name, index: as for :class:`Entry`
-        type: ``record``, ``period`` or ``final``
-        expect: the parsed expectation
-        start, end: a period's window in run seconds (``from``/``to``); ``None`` = default
+        type: ``record``, ``period``, ``final`` or ``temporal``
+        expect: the parsed expectation (a temporal criterion's: a :class:`~btgen_pytrees.formulas.Formula`)
+        start, end: a period's window in run seconds (``from``/``to``); ``None`` = default; a temporal
+            criterion's anchor in seconds (``from``)
+        anchor: a temporal criterion's anchor at an entry, ``(entry id, "start" | "end")``; ``None``: ``start``
+        tick: the case's tick (a temporal criterion's windows count ticks)
         at: a final's evaluation time; ``None`` = when the execute subtree finishes
         action: selects a user oracle leaf registered for ``(type, action)``; ``None``: the built-in
         params, expressions: the user leaf's parameters, and those it declares as expressions, parsed
@@ -189,7 +193,7 @@ class Criterion:
 
     id: str
     type: str
-    expect: Expression
+    expect: Expression | Formula
     name: str
     index: int
     start: float | None = None
@@ -198,6 +202,8 @@ class Criterion:
     action: str | None = None
     params: Mapping[str, Any] = field(default_factory=lambda: EMPTY)
     expressions: Mapping[str, Expression] = field(default_factory=lambda: EMPTY)
+    anchor: tuple[str, str] | None = None
+    tick: float = DEFAULT_TICK
 
     @property
     def path(self) -> tuple[str | int, ...]:

@@ -33,6 +33,7 @@ LAYERS: dict[str, int] = {
     "btgen_pytrees.order": 0,
     "btgen_pytrees.errors": 0,
     "btgen_pytrees.expressions": 0,
+    "btgen_pytrees.formulas": 0,
     "btgen_pytrees.clock": 0,
     "btgen_pytrees.writing": 0,
     "btgen_pytrees.progress": 0,
@@ -40,6 +41,7 @@ LAYERS: dict[str, int] = {
     "btgen_pytrees.model": 0,
     # L1: contracts and algorithms that know no leaf, system or view
     "btgen_pytrees.timeline": 1,
+    "btgen_pytrees.monitor": 1,
     "btgen_pytrees.contracts": 1,
     "btgen_pytrees.parallel": 1,
     # L2: systems under test; L3: built-in behaviours (the SUMO actions among them) and their registration

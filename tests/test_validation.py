@@ -66,7 +66,7 @@ def test_criterion_keys_depend_on_type() -> None:
     data = case(entry("A"), criteria=[crit("R", "record", "true", at=1), crit("F", "final", "true", **{"from": 1})])
     assert problems(data) == [
         ("/oracle/criteria/0/at", "'at' is only allowed on final criteria"),
-        ("/oracle/criteria/1/from", "'from' is only allowed on period criteria"),
+        ("/oracle/criteria/1/from", "'from' is only allowed on period and temporal criteria"),
     ]
 
 

@@ -32,7 +32,7 @@ from .system import SystemType
 
 __all__ = ["Factory", "FactoryError", "LeafError", "LeafType", "Registry", "KINDS"]
 
-KINDS = ("behavior", "constraint", "record", "period", "final")
+KINDS = ("behavior", "constraint", "record", "period", "final", "temporal")
 Factory = Callable[[Union[Entry, Criterion], Environment], py_trees.behaviour.Behaviour]
 """``factory(entry_or_criterion, environment) -> Behaviour``."""
 

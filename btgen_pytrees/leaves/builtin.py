@@ -10,7 +10,7 @@ from typing import Any
 
 from ..contracts.registry import Registry
 from ..systems.simulated import SIMULATED
-from . import oracles, simulated, sumo
+from . import oracles, simulated, sumo, temporal
 
 __all__ = ["register_builtins", "PARAMS"]
 
@@ -57,6 +57,8 @@ def register_builtins(registry: Registry) -> Registry:
     registry.register(None, oracles.Record, kind="record", params_schema=no_params, description="expect holds on every tick")
     registry.register(None, oracles.Period, kind="period", params_schema=no_params, description="expect holds on every tick of a window")
     registry.register(None, oracles.Final, kind="final", params_schema=no_params, description="expect holds at one instant")
+    registry.register(None, temporal.Temporal, kind="temporal", params_schema=no_params,
+                      description="the formula's robustness at its anchor is > 0 (signal temporal logic)")  # fmt: skip
     registry.register_system(SIMULATED)
     sumo.register(registry)  # the SUMO back end registers like a plugin; it imports libsumo only to run
     return registry

@@ -60,6 +60,8 @@ class Outcome:
     message: str = ""
     values: dict[str, Any] = field(default_factory=dict)
     margin: float | None = None
+    decided: float | None = None
+    """A temporal criterion's: the run time of the tick after which its verdict was certain."""
 
 
 MAX_SAMPLES = 1000

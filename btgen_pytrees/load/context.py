@@ -14,6 +14,9 @@ import networkx as nx
 
 from ..errors import PathPart, Problem
 from ..expressions import RESERVED, Expression, ExpressionError, parse
+from ..formulas import Formula, FormulaError
+from ..formulas import parse as parse_formula
+from ..monitor import WindowError, ticks_of
 from ..leaves import Registry
 from ..contracts.registry import LeafType
 from ..model import DEFAULT_TICK, DEFAULT_TIMEOUT, EMPTY, Criterion, Entry
@@ -148,7 +151,7 @@ class Checker:
         oracle = data.get("oracle")
         criteria = oracle.get("criteria") if isinstance(oracle, dict) else None
         for i, raw in enumerate(criteria if isinstance(criteria, list) else ()):
-            if not isinstance(raw, dict) or raw.get("type") not in ("record", "period", "final"):
+            if not isinstance(raw, dict) or raw.get("type") not in ("record", "period", "final", "temporal"):
                 continue
             action, params = raw.get("action"), raw.get("params", {})
             if (action is None or isinstance(action, str) and action) and isinstance(params, dict):
@@ -220,6 +223,16 @@ class Checker:
             path = ("oracle", "criteria", i)
             params = raw.get("params", {})
             expressions = self.check_leaf(path, raw["type"], raw.get("action"), params)
+            if raw["type"] == "temporal":
+                formula, anchor = self.formula(raw, path)
+                if formula is not None:
+                    start = raw.get("from") if anchor is None else None
+                    out.append(Criterion(
+                        raw["id"], "temporal", formula, raw.get("name", raw["id"]), i, start,
+                        action=raw.get("action"), params=freeze(params), expressions=freeze(expressions), anchor=anchor,
+                        tick=self.data.get("tick", DEFAULT_TICK),
+                    ))  # fmt: skip
+                continue
             expr = self.expression(raw["expect"], (*path, "expect"))
             start, end = raw.get("from"), raw.get("to")
             if start is not None and end is not None and start >= end:
@@ -230,6 +243,36 @@ class Checker:
                     action=raw.get("action"), params=freeze(params), expressions=freeze(expressions),
                 ))  # fmt: skip
         return out
+
+    def formula(self, raw: Mapping[str, Any], path: tuple[PathPart, ...]) -> tuple[Formula | None, tuple[str, str] | None]:
+        """A temporal criterion's formula (its atoms' signals known, its windows whole ticks) and anchor."""
+        text = raw["expect"]
+        anchor = None
+        where = raw.get("from")
+        if isinstance(where, str):
+            entry, _, edge = where.rpartition(".")
+            ids = [e.get("id") for e in self.data.get("execute", []) if isinstance(e, dict) and isinstance(e.get("id"), str)]
+            if entry not in ids:
+                self.add((*path, "from"), f"unknown entry {entry!r} in {shown(where)}{suggest(entry, ids)}", "graph")
+            anchor = (entry, edge)
+        try:
+            formula = parse_formula(text)
+        except FormulaError as exc:
+            self.add((*path, "expect"), f"bad formula {shown(text)}: {exc}", "expression")
+            return None, anchor
+        for name in sorted(formula.names - self.known):
+            if self._checked(name):
+                self.add((*path, "expect"), f"unknown signal {name!r} in {shown(text)}{suggest(name, self.known)}", "signal")
+        tick = self.data.get("tick", DEFAULT_TICK)
+        for node in formula.walk():
+            for bound in node.window or ():
+                if bound is not None and isinstance(tick, (int, float)) and tick > 0:
+                    try:
+                        ticks_of(bound, tick)
+                    except WindowError as exc:
+                        self.add((*path, "expect"), f"window of {node.op!r} in {shown(node.source)}: {exc} (windows count whole ticks)", "expression")
+                        return None, anchor
+        return formula, anchor
 
     def cycles(self, entries: list[Entry]) -> None:
         if is_acyclic({e.id: e.after for e in entries}):  # the common case, without building a graph

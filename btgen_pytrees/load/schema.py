@@ -41,9 +41,9 @@ def schema_for(registry: Registry | None = None) -> dict[str, Any]:
     registry = registry if registry is not None else default_registry()
     full = json.loads(schema_text())
     entry_rules, criterion_rules = [], []
-    for kind in ("behavior", "constraint", "record", "period", "final"):
+    for kind in ("behavior", "constraint", "record", "period", "final", "temporal"):
         actions: list[str | None] = list(registry.actions(kind))
-        if kind in ("record", "period", "final"):
+        if kind in ("record", "period", "final", "temporal"):
             actions.insert(0, None)
         for action in actions:
             leaf = registry.get(kind, action)

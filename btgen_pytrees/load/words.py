@@ -46,10 +46,10 @@ def described(errors: Iterable[Any], data: Any, prefix: tuple[PathPart, ...] = (
             continue
         if error.schema is False:  # from/to/at on a criterion of another type (if/else branches)
             criterion = _resolve(data, tuple(error.absolute_path))
-            allowed = {"from": "period", "to": "period", "at": "final"}
+            allowed = {"from": ("period", "temporal"), "to": ("period",), "at": ("final",)}
             for key, where in allowed.items():
-                if isinstance(criterion, dict) and key in criterion and criterion.get("type") != where:
-                    yield Problem((*path, key), f"{key!r} is only allowed on {where} criteria", cause)
+                if isinstance(criterion, dict) and key in criterion and criterion.get("type") not in where:
+                    yield Problem((*path, key), f"{key!r} is only allowed on {' and '.join(where)} criteria", cause)
             continue
         if keyword == "required":
             missing = error.message.split("'")[1] if "'" in error.message else error.message

@@ -371,7 +371,7 @@ class Collector(py_trees.visitors.VisitorBase):
                 criterion.id, criterion.type, criterion.expect.source, outcome.verdict, outcome.at,
                 outcome.message, dict(outcome.values), list(getattr(node, "samples", [])),
                 name=criterion.name, group=group, relation=self.case.relation.get(group, "&&"),
-                margin=_margin(getattr(outcome, "margin", None)))))  # fmt: skip
+                margin=_margin(getattr(outcome, "margin", None)), decided=getattr(outcome, "decided", None))))  # fmt: skip
         oracles.sort(key=lambda pair: pair[0])
         if verdict == "fail" and not message:
             message = _why_failed(execute, [o for _, o in oracles])

@@ -83,6 +83,8 @@ class OracleResult:
     group: str = ""
     relation: str = "&&"
     margin: float | None = None
+    decided: float | None = None
+    """A temporal criterion's: the run time of the tick after which its verdict was certain (JSON: temporal only)."""
 
     @property
     def label(self) -> str:
@@ -195,6 +197,8 @@ class Report:
             del oracle["samples"]
             oracle["values"] = {k: _json_value(v) for k, v in oracle["values"].items()}
             oracle["margin"] = _json_value(oracle["margin"])
+            if oracle["type"] != "temporal":
+                del oracle["decided"]
         ordered = {k: data[k] for k in ("test", "source", "verdict")}
         ordered["margin"] = _json_value(self.margin)
         ordered.update((k, data[k]) for k in ("duration", "ticks", "message"))

@@ -1,0 +1,149 @@
+"""The built-in ``temporal`` criterion: a signal temporal logic formula judged by its robustness.
+
+Once per tick the leaf judges the formula's atoms (:meth:`~btgen_pytrees.expressions.Expression.judge`)
+and steps its online monitor (:class:`~btgen_pytrees.monitor.Monitor`). The formula is evaluated at its
+*anchor*: ``from`` in seconds (default 0), or the tick on which an execute entry started or ended
+(``"from": "LeadBrakes.start"``). Its *horizon* is the anchor plus the formula's span (how far its
+windows look ahead); ``always`` without a window reads to the end of the run, which is the tick on which
+the execute subtree has finished.
+
+The leaf stays RUNNING until the horizon has passed, even when the verdict was certain earlier: the
+margin is that of the whole horizon (sweeps and ``falsify`` compare margins). Then it succeeds (the
+robustness is > 0, or 0 with the formula true) or fails. :attr:`Outcome.decided` is the run time of the
+earliest tick after which the verdict was certain (:func:`~btgen_pytrees.monitor.decided`). A run that ends
+before the horizon leaves it ``inconclusive``.
+
+An atom that cannot be evaluated (a signal without a value, a division by zero) fails the criterion on
+that tick with an unknown margin, like the other criteria.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from ..contracts.environment import Environment
+from ..expressions import ExpressionError, format_number
+from ..model import Criterion
+from ..monitor import Monitor, decided, holds, ticks_of
+from .oracles import MAX_SAMPLES, Oracle, Outcome
+from .simulated import reached
+
+__all__ = ["Temporal"]
+
+_SUCCESS, _FAILURE, _RUNNING, _INVALID = Status.SUCCESS, Status.FAILURE, Status.RUNNING, Status.INVALID
+
+
+class Temporal(Oracle):
+    """A ``temporal`` criterion (see the module notes)."""
+
+    def __init__(self, criterion: Criterion, env: Environment):
+        super().__init__(criterion, env)
+        self.monitor = Monitor(criterion.expect, criterion.tick)  # type: ignore[arg-type]
+        self.judges = [e.judge for e in self.monitor.expressions]  # type: ignore[union-attr]
+        self.entry: py_trees.behaviour.Behaviour | None = None  # the node an entry anchor watches
+        self.anchor: int | None = None  # the anchor's sample, once known
+        self.anchor_known = 0  # the sample on which the anchor became known
+
+    def waits_for_execute(self) -> bool:
+        return self.criterion.expect.span == float("inf")  # type: ignore[union-attr]
+
+    def setup(self, **kwargs: Any) -> None:
+        anchor = self.criterion.anchor
+        if anchor is not None and anchor[1] == "start":
+            root: py_trees.behaviour.Behaviour = self
+            while root.parent is not None:
+                root = root.parent
+            self.entry = next((n for n in root.iterate() if getattr(getattr(n, "btgen_entry", None), "id", None) == anchor[0]), None)
+
+    def initialise(self) -> None:
+        super().initialise()
+        self.monitor = Monitor(self.criterion.expect, self.criterion.tick)  # type: ignore[arg-type]
+        self.anchor = None
+        span = self.monitor.root.span
+        self.outcome.message = "the run ended before the anchor" if self.criterion.anchor else (
+            f"the run ended before its horizon ({self.horizon_text(ticks_of_anchor(self.criterion))})"
+            if span != float("inf") else "the run ended before the execute subtree finished")
+
+    def horizon_text(self, anchor: int) -> str:
+        span = self.monitor.root.span
+        if span == float("inf"):
+            return "the end of the run"
+        return f"{(anchor + span) * self.criterion.tick:.6g} s"
+
+    def update(self) -> Status:
+        now = self.env.now()
+        k = self.judged
+        self.judged = k + 1
+        expect = self.criterion.expect
+        values = self.env.values(expect.ordered_names, self.client)
+        samples = self.samples
+        if (not samples or samples[-1][1] != values) and len(samples) < MAX_SAMPLES:
+            samples.append((now, values))
+        margins = []
+        try:
+            for judge in self.judges:
+                truth, margin = judge(values)
+                margins.append(margin if margin else (0.0 if truth else -0.0))  # a held boundary +0, a failed one -0
+        except ExpressionError as exc:
+            shown = ", ".join(f"{n}={format_number(v)}" for n, v in sorted(values.items()))
+            message = f"{exc} at {now:.6g} s" + (f" ({shown})" if shown else "")
+            self.outcome = Outcome("fail", now, message, values, None)
+            self.feedback_message = message
+            return _FAILURE
+        monitor = self.monitor
+        monitor.step(margins)
+        if self.anchor is None:
+            self.anchor = self.find_anchor(now, k)
+            if self.anchor is None:
+                self.feedback_message = "waits for its anchor"
+                return _RUNNING
+            self.anchor_known = k
+            self.outcome.message = f"the run ended before its horizon ({self.horizon_text(self.anchor)})"
+        anchor = self.anchor
+        root = monitor.root
+        ended = False
+        if len(root.values) <= anchor:
+            if root.span != float("inf") or not self.env.execute_done(self.client):
+                self.feedback_message = f"horizon {self.horizon_text(anchor)}"
+                return _RUNNING
+            monitor.finish()  # always without a window: the run ends with the execute subtree
+            ended = True
+        margin = root.values[anchor] + 0.0
+        ok = margin > 0 or margin == 0 and holds(root, anchor)
+        tick = self.criterion.tick
+        first = decided(monitor, anchor, max(self.anchor_known, 0), k, ended)
+        at = now
+        self.outcome = Outcome("pass" if ok else "fail", at, "", values, margin)
+        self.outcome.decided = first * tick
+        self.outcome.message = self.why(ok, margin, anchor, first)
+        self.feedback_message = self.outcome.message
+        return _SUCCESS if ok else _FAILURE
+
+    def find_anchor(self, now: float, k: int) -> int | None:
+        """The anchor's sample, if it is known on sample *k* (at run time *now*)."""
+        criterion = self.criterion
+        if criterion.anchor is None:
+            start = criterion.start or 0.0
+            return ticks_of_anchor(criterion) if reached(now, start) or k >= ticks_of_anchor(criterion) else None
+        entry, edge = criterion.anchor
+        if edge == "end":
+            return k if self.env.is_done(entry) else None
+        node = self.entry
+        return k if node is not None and node.status != _INVALID else None
+
+    def why(self, ok: bool, margin: float, anchor: int, first: int) -> str:
+        tick = self.criterion.tick
+        verdict = "held" if ok else "violated"
+        return (f"{self.criterion.expect.source} {verdict} at {anchor * tick:.6g} s (margin {format_number(margin)}); "
+                f"certain after the tick at {first * tick:.6g} s")  # fmt: skip
+
+
+def ticks_of_anchor(criterion: Criterion) -> int:
+    """A criterion's ``from`` in seconds as a sample (the first tick at or after it)."""
+    start = criterion.start or 0.0
+    n = start / criterion.tick
+    k = round(n)
+    return int(k) if abs(n - k) <= 1e-9 * max(1.0, n) else int(n) + 1

@@ -1,0 +1,447 @@
+"""The online robustness monitor of a :class:`~btgen_pytrees.formulas.Formula`.
+
+Discrete time: sample ``k`` is the run's ``k``-th tick, a window ``[a, b]`` in seconds is ``[a/tick, b/tick]``
+in samples (bounds must be multiples of the tick, as rtamt requires of its sampling period). The robustness
+of every sub-formula is a stream of values, one per sample, in sample order; each node of the monitor turns
+its operands' streams into its own as soon as they allow:
+
+* an atom: the expression's margin (:meth:`~btgen_pytrees.expressions.Expression.judge`), every tick;
+* ``!``, ``&&``, ``||``, ``->``: pointwise ``-x``, ``min``, ``max``, ``max(-x, y)``;
+* ``eventually[a,b]`` / ``always[a,b]``: the max / min of the operand over ``[t+a, t+b]``, emitted once the
+  operand's value at ``t+b`` is known; ``once[a,b]`` / ``historically[a,b]`` over ``[t-b, t-a]``. A sliding
+  window extreme kept in Lemire's monotone deque (Lemire 2006, as in Donzé, Ferrère and Maler's efficient
+  robust monitoring): each operand value enters and leaves the deque once - amortised O(1) per tick;
+* ``until[a,b]``, ``since[a,b]``: rtamt's definitions, ``max over t' in [t+a, t+b] of min(ψ(t'), min of φ over
+  [t, t'))`` and ``max over t' in [t-b, t-a] of min(ψ(t'), min of φ over (t', t])``: O(b - a + 1) per tick
+  (the window's running minimum, no deque); unbounded ``since`` and past operators: O(1) recurrences;
+* ``always`` without a window (to the end of the run): known at the end of the run only (:meth:`Monitor.finish`).
+
+:meth:`Monitor.finish` ends the trace: values not emitted yet are computed on the windows cut at the last
+sample (the maximum over an empty window is ``-inf``, the minimum ``+inf``) - what rtamt's offline
+discrete-time evaluation gives on the same finite trace, so a formula's value at every sample equals
+rtamt's there (``tests/test_temporal.py`` compares them on random formulas and traces).
+
+Every node keeps its whole stream (:attr:`Node.values`): the replay page draws the sub-formulas' robustness
+over time, and :func:`decided` asks what was known at an earlier tick.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Callable, Iterable
+
+from .formulas import Formula
+
+__all__ = ["Monitor", "Node", "ticks_of", "WindowError", "decided", "bounds_at", "holds"]
+
+_INF = math.inf
+
+
+class WindowError(ValueError):
+    """A window bound that is not a multiple of the tick."""
+
+
+def ticks_of(seconds: float, tick: float) -> int:
+    """*seconds* as a whole number of ticks; :class:`WindowError` when it is not one (within 1e-9).
+
+    >>> ticks_of(1.5, 0.1), ticks_of(0.3, 0.1)
+    (15, 3)
+    """
+    n = seconds / tick
+    k = round(n)
+    if abs(n - k) > 1e-9 * max(1.0, abs(n)):
+        raise WindowError(f"{seconds:g} s is not a multiple of the tick ({tick:g} s)")
+    return int(k)
+
+
+class Node:
+    """One sub-formula's robustness stream: :attr:`values` (sample ``t`` at index ``t``).
+
+    Attributes:
+        formula: the sub-formula
+        children: the operands' nodes
+        low, high: the window in samples (``high`` None: unbounded); 0, 0 without a window
+        span: how many samples past ``t`` the value at ``t`` may read (``inf``: to the end of the run)
+    """
+
+    __slots__ = ("formula", "children", "low", "high", "span", "values", "update", "_deque", "_next", "_run", "samples")
+
+    def __init__(self, formula: Formula, children: list[Node], tick: float):
+        self.formula = formula
+        self.children = children
+        window = formula.window
+        self.low = ticks_of(window[0], tick) if window else 0
+        self.high = (ticks_of(window[1], tick) if window[1] is not None else None) if window else 0
+        inner = max((c.span for c in children), default=0)
+        op = formula.op
+        if op in ("always", "eventually", "until"):
+            self.span: float = _INF if self.high is None else inner + self.high
+        else:
+            self.span = inner
+        self.values: list[float] = []
+        self.samples: list[float] = self.values  # the trace's samples so far (the monitor's first atom's stream)
+        self._deque: deque[int] = deque()
+        self._next = 0  # the next operand sample to enter the deque
+        self._run = -_INF if op == "once" else _INF  # an unbounded once's / historically's running value
+        self.update: Callable[[], None] = getattr(self, "_" + op)
+
+    # -- one tick: append what the operands now allow ----------------------------------------------------
+    def _atom(self) -> None:  # fed by Monitor.step
+        pass
+
+    def _not(self) -> None:
+        out, src = self.values, self.children[0].values
+        for t in range(len(out), len(src)):
+            out.append(-src[t])
+
+    def _and(self) -> None:
+        out = self.values
+        streams = [c.values for c in self.children]
+        for t in range(len(out), min(map(len, streams))):
+            out.append(min(s[t] for s in streams))
+
+    def _or(self) -> None:
+        out = self.values
+        streams = [c.values for c in self.children]
+        for t in range(len(out), min(map(len, streams))):
+            out.append(max(s[t] for s in streams))
+
+    def _implies(self) -> None:
+        out, left, right = self.values, self.children[0].values, self.children[1].values
+        for t in range(len(out), min(len(left), len(right))):
+            out.append(max(-left[t], right[t]))
+
+    def _window_future(self, larger: bool, end: int | None = None) -> None:
+        """eventually (*larger*) / always over [t+a, t+b]; *end*: the trace ends at that sample (a cut window)."""
+        out, src, dq = self.values, self.children[0].values, self._deque
+        a, b = self.low, self.high
+        assert b is not None
+        known = len(src) if end is None else end + 1
+        t = len(out)
+        while (t + b < known) if end is None else (t <= end):
+            top = min(t + b, known - 1)
+            j = self._next
+            while j <= top:  # enter the deque: drop the samples it makes useless (Lemire)
+                v = src[j]
+                if larger:
+                    while dq and src[dq[-1]] <= v:
+                        dq.pop()
+                else:
+                    while dq and src[dq[-1]] >= v:
+                        dq.pop()
+                dq.append(j)
+                j += 1
+            self._next = j
+            while dq and dq[0] < t + a:
+                dq.popleft()
+            out.append(src[dq[0]] if dq else (-_INF if larger else _INF))
+            t += 1
+
+    def _eventually(self) -> None:
+        self._window_future(True)
+
+    def _always(self) -> None:
+        if self.high is not None:
+            self._window_future(False)
+
+    def _window_past(self, larger: bool) -> None:
+        """once (*larger*) / historically over [t-b, t-a] (unbounded: since sample 0)."""
+        out, src, dq = self.values, self.children[0].values, self._deque
+        a, b = self.low, self.high
+        t = len(out)
+        last = min(len(src) + a, len(self.samples))  # (a value is emitted for a sample the trace has)
+        while t < last:
+            if t - a >= 0:
+                v = src[t - a]
+                if b is None:  # a running extreme
+                    run = self._run
+                    self._run = run = (v if v > run else run) if larger else (v if v < run else run)
+                    out.append(run)
+                    t += 1
+                    continue
+                if larger:
+                    while dq and src[dq[-1]] <= v:
+                        dq.pop()
+                else:
+                    while dq and src[dq[-1]] >= v:
+                        dq.pop()
+                dq.append(t - a)
+                while dq[0] < t - b:
+                    dq.popleft()
+                out.append(src[dq[0]])
+            else:
+                out.append(-_INF if larger else _INF)
+            t += 1
+
+    def _once(self) -> None:
+        self._window_past(True)
+
+    def _historically(self) -> None:
+        self._window_past(False)
+
+    def _until(self, end: int | None = None) -> None:
+        out, left, right = self.values, self.children[0].values, self.children[1].values
+        a, b = self.low, self.high
+        assert b is not None
+        known = min(len(left), len(right)) if end is None else end + 1
+        t = len(out)
+        while (t + b < known) if end is None else (t <= end):
+            best, run = -_INF, _INF  # run: min of φ over [t, t')
+            for u in range(t, min(t + b, known - 1) + 1):
+                if u >= t + a:
+                    r = right[u]
+                    v = r if r < run else run
+                    if v > best:
+                        best = v
+                lv = left[u]
+                if lv < run:
+                    run = lv
+            out.append(best)
+            t += 1
+
+    def _since(self) -> None:
+        out, left, right = self.values, self.children[0].values, self.children[1].values
+        a, b = self.low, self.high
+        known = min(len(left), len(right), len(self.samples))
+        t = len(out)
+        while t < known:
+            if b is None:  # s(t) = max(ψ(t), min(φ(t), s(t-1)))
+                prev = out[-1] if out else -_INF
+                lv, rv = left[t], right[t]
+                v = lv if lv < prev else prev
+                out.append(rv if rv > v else v)
+            else:
+                best, run = -_INF, _INF  # run: min of φ over (t', t]
+                for u in range(t, max(t - b, 0) - 1, -1):
+                    if u <= t - a:
+                        r = right[u]
+                        v = r if r < run else run
+                        if v > best:
+                            best = v
+                    lv = left[u]
+                    if lv < run:
+                        run = lv
+                out.append(best)
+            t += 1
+
+    # -- the end of the trace -----------------------------------------------------------------------------
+    def finish(self, end: int) -> None:
+        """The trace ends at sample *end*: emit every value up to it, on windows cut there."""
+        op = self.formula.op
+        if op == "eventually":
+            self._window_future(True, end)
+        elif op == "always" and self.high is not None:
+            self._window_future(False, end)
+        elif op == "always":  # unbounded: the minimum of the suffix
+            src, out = self.children[0].values, self.values
+            low = _INF
+            suffix = [0.0] * (end + 1)
+            for t in range(end, -1, -1):
+                if src[t] < low:
+                    low = src[t]
+                suffix[t] = low
+            out[len(out):] = suffix[len(out):]
+        elif op == "until":
+            self._until(end)
+        else:
+            self.update()
+
+
+class Monitor:
+    """The online monitor of one formula: :meth:`step` once per tick with the atoms' margins.
+
+    Attributes:
+        root: the formula's node; ``root.values[t]`` its robustness at sample ``t``, once known
+        atoms: the atom nodes, in the order :attr:`expressions` lists their expressions
+        nodes: every node, each after its operands (the order :meth:`step` updates them in)
+    """
+
+    def __init__(self, formula: Formula, tick: float):
+        self.formula = formula
+        self.tick = tick
+        self.nodes: list[Node] = []
+        self.atoms: list[Node] = []
+        self.root = self._build(formula)
+        for node in self.nodes:
+            node.samples = self.atoms[0].values
+        self.updates = [n.update for n in self.nodes if n.formula.op != "atom"]
+        self.ended = False
+
+    def _build(self, formula: Formula) -> Node:
+        node = Node(formula, [self._build(c) for c in formula.children], self.tick)
+        self.nodes.append(node)
+        if formula.op == "atom":
+            self.atoms.append(node)
+        return node
+
+    @property
+    def expressions(self) -> list:
+        return [n.formula.atom for n in self.atoms]
+
+    def step(self, margins: Iterable[float]) -> None:
+        """The atoms' margins at the next sample (in :attr:`atoms` order); every node emits what it can."""
+        for node, margin in zip(self.atoms, margins):
+            node.values.append(margin)
+        for update in self.updates:
+            update()
+
+    def finish(self) -> None:
+        """The trace has ended at the last sample stepped: every node emits the rest (cut windows)."""
+        if self.ended or not self.atoms or not self.atoms[0].values:
+            return
+        self.ended = True
+        end = len(self.atoms[0].values) - 1
+        for node in self.nodes:
+            if node.formula.op != "atom":
+                node.finish(end)
+
+
+# -- what was known at an earlier tick --------------------------------------------------------------------
+
+def bounds_at(node: Node, t: int, k: int, end: int | None = None) -> tuple[float, float]:
+    """The interval the robustness of *node* at sample *t* was known to lie in after sample *k*: samples
+    after *k* may be anything (each atom's value in [-inf, inf]), unless the trace ended at *end* (then the
+    windows are cut there, as :meth:`Monitor.finish` cuts them).
+
+    A value whose window lies within the first *k* samples is the stream's own; others are worked out
+    from the operands' intervals (min, max and negation are monotone).
+    """
+    values = node.values
+    if t < len(values) and (t + node.span <= k or end is not None and k >= end):
+        v = values[t]
+        return v, v
+    op = node.formula.op
+    if op == "atom":
+        return (-_INF, _INF)
+    kids = node.children
+    if op == "not":
+        lo, hi = bounds_at(kids[0], t, k, end)
+        return -hi, -lo
+    if op in ("and", "or"):
+        pairs = [bounds_at(c, t, k, end) for c in kids]
+        pick = min if op == "and" else max
+        return pick(p[0] for p in pairs), pick(p[1] for p in pairs)
+    if op == "implies":
+        (llo, lhi), (rlo, rhi) = bounds_at(kids[0], t, k, end), bounds_at(kids[1], t, k, end)
+        return max(-lhi, rlo), max(-llo, rhi)
+    a, b = node.low, node.high
+    last = _INF if end is None else end
+    if op in ("eventually", "always"):
+        top = last if b is None else min(t + b, last)
+        if b is None and end is None:  # unbounded, trace not ended: the known part, and the unknown rest
+            top = max(k + 1, t + a)
+        larger = op == "eventually"
+        lo, hi = (-_INF, -_INF) if larger else (_INF, _INF)
+        u = t + a
+        while u <= top:
+            if u > k and end is None and b is None:
+                plo, phi = -_INF, _INF
+            else:
+                plo, phi = bounds_at(kids[0], int(u), k, end)
+            if larger:
+                lo, hi = max(lo, plo), max(hi, phi)
+            else:
+                lo, hi = min(lo, plo), min(hi, phi)
+            u += 1
+        return lo, hi
+    if op in ("once", "historically"):
+        larger = op == "once"
+        first = 0 if b is None else max(t - b, 0)
+        lo, hi = (-_INF, -_INF) if larger else (_INF, _INF)
+        for u in range(first, t - a + 1):
+            plo, phi = bounds_at(kids[0], u, k, end)
+            if larger:
+                lo, hi = max(lo, plo), max(hi, phi)
+            else:
+                lo, hi = min(lo, plo), min(hi, phi)
+        return lo, hi
+    if op == "until":
+        assert b is not None
+        top = t + b if end is None else min(t + b, end)
+        best_lo = best_hi = -_INF
+        run_lo = run_hi = _INF
+        for u in range(t, top + 1):
+            if u >= t + a:
+                rlo, rhi = bounds_at(kids[1], u, k, end)
+                best_lo, best_hi = max(best_lo, min(rlo, run_lo)), max(best_hi, min(rhi, run_hi))
+            llo, lhi = bounds_at(kids[0], u, k, end)
+            run_lo, run_hi = min(run_lo, llo), min(run_hi, lhi)
+        return best_lo, best_hi
+    # since
+    first = 0 if b is None else max(t - b, 0)
+    best_lo = best_hi = -_INF
+    run_lo = run_hi = _INF
+    for u in range(t, first - 1, -1):
+        if u <= t - a:
+            rlo, rhi = bounds_at(kids[1], u, k, end)
+            best_lo, best_hi = max(best_lo, min(rlo, run_lo)), max(best_hi, min(rhi, run_hi))
+        llo, lhi = bounds_at(kids[0], u, k, end)
+        run_lo, run_hi = min(run_lo, llo), min(run_hi, lhi)
+    return best_lo, best_hi
+
+
+def decided(monitor: Monitor, anchor: int, known_from: int, last: int, ended: bool) -> int:
+    """The earliest sample after which the verdict at *anchor* was certain: its interval
+    (:func:`bounds_at`) lay above 0 or below 0; *last* (where the value became known) when it never did.
+
+    Certainty only grows with the samples known, so this is a binary search over [*known_from*, *last*].
+    *ended*: the trace ended at *last* (a formula that reads to the end of the run).
+    """
+    root = monitor.root
+    end = last if ended else None
+
+    def certain(k: int) -> bool:
+        lo, hi = bounds_at(root, anchor, k, end if k >= last else None)
+        return lo > 0 or hi < 0
+
+    low, high = known_from, last
+    if not certain(high):
+        return last
+    while low < high:
+        mid = (low + high) // 2
+        if certain(mid):
+            high = mid
+        else:
+            low = mid + 1
+    return low
+
+
+def holds(node: Node, t: int) -> bool:
+    """The formula's truth at sample *t*, from its atoms' truth (a margin of 0 is true when its atom held:
+    the atoms' streams keep ``0.0`` for a held boundary and ``-0.0`` for a failed one). What the verdict of
+    a robustness of exactly 0 is (its sign does not say). Needs the whole trace the value reads."""
+    op = node.formula.op
+    if op == "atom":
+        v = node.values[t]
+        return v > 0 or v == 0 and math.copysign(1.0, v) > 0
+    kids = node.children
+    if op == "not":
+        return not holds(kids[0], t)
+    if op == "and":
+        return all(holds(c, t) for c in kids)
+    if op == "or":
+        return any(holds(c, t) for c in kids)
+    if op == "implies":
+        return not holds(kids[0], t) or holds(kids[1], t)
+    end = len(kids[0].values) - 1
+    a, b = node.low, node.high
+    if op in ("eventually", "always"):
+        top = end if b is None else min(t + b, end)
+        test = any if op == "eventually" else all
+        return test(holds(kids[0], u) for u in range(t + a, top + 1))
+    if op in ("once", "historically"):
+        first = 0 if b is None else max(t - b, 0)
+        test = any if op == "once" else all
+        return test(holds(kids[0], u) for u in range(first, t - a + 1))
+    if op == "until":
+        assert b is not None
+        for u in range(t + a, min(t + b, end) + 1):
+            if holds(kids[1], u) and all(holds(kids[0], w) for w in range(t, u)):
+                return True
+        return False
+    first = 0 if b is None else max(t - b, 0)
+    for u in range(first, t - a + 1):
+        if holds(kids[1], u) and all(holds(kids[0], w) for w in range(u + 1, t + 1)):
+            return True
+    return False

@@ -22,7 +22,7 @@ discrete-time evaluation gives on the same finite trace, so a formula's value at
 rtamt's there (``tests/test_temporal.py`` compares them on random formulas and traces).
 
 Every node keeps its whole stream (:attr:`Node.values`): the replay page draws the sub-formulas' robustness
-over time, and :func:`decided` asks what was known at an earlier tick.
+over time, and :func:`decided` asks what was known at an earlier tick (:func:`bound_at`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from typing import Callable, Iterable
 
 from .formulas import Formula
 
-__all__ = ["Monitor", "Node", "ticks_of", "WindowError", "decided", "bounds_at", "holds"]
+__all__ = ["Monitor", "Node", "ticks_of", "WindowError", "decided", "bound_at", "polarities", "holds"]
 
 _INF = math.inf
 
@@ -299,101 +299,70 @@ class Monitor:
 
 # -- what was known at an earlier tick --------------------------------------------------------------------
 
-def bounds_at(node: Node, t: int, k: int, end: int | None = None) -> tuple[float, float]:
-    """The interval the robustness of *node* at sample *t* was known to lie in after sample *k*: samples
-    after *k* may be anything (each atom's value in [-inf, inf]), unless the trace ended at *end* (then the
-    windows are cut there, as :meth:`Monitor.finish` cuts them).
+def polarities(formula: Formula, positive: bool = True, out: dict[int, bool] | None = None) -> dict[int, bool]:
+    """Each sub-formula's polarity, by ``id``: whether the root's robustness grows with it (an even number
+    of negations above it - ``!`` and the premise of ``->`` negate) or shrinks."""
+    out = {} if out is None else out
+    out[id(formula)] = positive
+    for i, child in enumerate(formula.children):
+        flip = formula.op == "not" or formula.op == "implies" and i == 0
+        polarities(child, positive != flip, out)
+    return out
 
-    A value whose window lies within the first *k* samples is the stream's own; others are worked out
-    from the operands' intervals (min, max and negation are monotone).
+
+def bound_at(monitor: Monitor, anchor: int, k: int, lower: bool) -> float:
+    """The lowest (*lower*) or highest robustness at *anchor* that any continuation of the first *k* + 1
+    samples can give (the trace not ended): each atom's later samples at the extreme that pushes the root
+    that way (``-inf`` or ``inf`` by the atom's polarity), every window whole, and ``always`` without a
+    window over the known samples and an unknown rest.
+
+    min, max and negation are monotone, so this is the interval's end. Worked out as the monitor works
+    (a fresh monitor over those samples: amortised O(1) per sample per operator), so a binary search over
+    *k* stays cheap however the windows nest.
     """
-    values = node.values
-    if t < len(values) and (t + node.span <= k or end is not None and k >= end):
-        v = values[t]
-        return v, v
-    op = node.formula.op
-    if op == "atom":
-        return (-_INF, _INF)
-    kids = node.children
-    if op == "not":
-        lo, hi = bounds_at(kids[0], t, k, end)
-        return -hi, -lo
-    if op in ("and", "or"):
-        pairs = [bounds_at(c, t, k, end) for c in kids]
-        pick = min if op == "and" else max
-        return pick(p[0] for p in pairs), pick(p[1] for p in pairs)
-    if op == "implies":
-        (llo, lhi), (rlo, rhi) = bounds_at(kids[0], t, k, end), bounds_at(kids[1], t, k, end)
-        return max(-lhi, rlo), max(-llo, rhi)
-    a, b = node.low, node.high
-    last = _INF if end is None else end
-    if op in ("eventually", "always"):
-        top = last if b is None else min(t + b, last)
-        if b is None and end is None:  # unbounded, trace not ended: the known part, and the unknown rest
-            top = max(k + 1, t + a)
-        larger = op == "eventually"
-        lo, hi = (-_INF, -_INF) if larger else (_INF, _INF)
-        u = t + a
-        while u <= top:
-            if u > k and end is None and b is None:
-                plo, phi = -_INF, _INF
-            else:
-                plo, phi = bounds_at(kids[0], int(u), k, end)
-            if larger:
-                lo, hi = max(lo, plo), max(hi, phi)
-            else:
-                lo, hi = min(lo, plo), min(hi, phi)
-            u += 1
-        return lo, hi
-    if op in ("once", "historically"):
-        larger = op == "once"
-        first = 0 if b is None else max(t - b, 0)
-        lo, hi = (-_INF, -_INF) if larger else (_INF, _INF)
-        for u in range(first, t - a + 1):
-            plo, phi = bounds_at(kids[0], u, k, end)
-            if larger:
-                lo, hi = max(lo, plo), max(hi, phi)
-            else:
-                lo, hi = min(lo, plo), min(hi, phi)
-        return lo, hi
-    if op == "until":
-        assert b is not None
-        top = t + b if end is None else min(t + b, end)
-        best_lo = best_hi = -_INF
-        run_lo = run_hi = _INF
-        for u in range(t, top + 1):
-            if u >= t + a:
-                rlo, rhi = bounds_at(kids[1], u, k, end)
-                best_lo, best_hi = max(best_lo, min(rlo, run_lo)), max(best_hi, min(rhi, run_hi))
-            llo, lhi = bounds_at(kids[0], u, k, end)
-            run_lo, run_hi = min(run_lo, llo), min(run_hi, lhi)
-        return best_lo, best_hi
-    # since
-    first = 0 if b is None else max(t - b, 0)
-    best_lo = best_hi = -_INF
-    run_lo = run_hi = _INF
-    for u in range(t, first - 1, -1):
-        if u <= t - a:
-            rlo, rhi = bounds_at(kids[1], u, k, end)
-            best_lo, best_hi = max(best_lo, min(rlo, run_lo)), max(best_hi, min(rhi, run_hi))
-        llo, lhi = bounds_at(kids[0], u, k, end)
-        run_lo, run_hi = min(run_lo, llo), min(run_hi, lhi)
-    return best_lo, best_hi
+    fresh = Monitor(monitor.formula, monitor.tick)
+    signs = polarities(monitor.formula)
+    reach = sum(n.high or 0 for n in fresh.nodes if n.formula.op in ("always", "eventually", "until"))
+    last = max(anchor, k) + reach + 1
+    feeds = []
+    for real, node in zip(monitor.atoms, fresh.atoms):
+        extreme = -_INF if lower == signs[id(node.formula)] else _INF
+        node.values.extend(real.values[: k + 1])
+        node.values.extend([extreme] * (last + 1 - len(node.values)))
+        feeds.append(node)
+    for node in fresh.nodes:
+        if node.formula.op == "atom":
+            continue
+        if node.formula.op == "always" and node.high is None:
+            src = node.children[0].values
+            if lower == signs[id(node.formula)]:  # the unknown rest can be anything: no lower end
+                node.values[:] = [-_INF] * (last + 1)
+            else:  # the known part's minimum; the rest may be +inf
+                low, out = _INF, [_INF] * (last + 1)
+                for t in range(min(k, last), -1, -1):
+                    if src[t] < low:
+                        low = src[t]
+                    out[t] = low
+                node.values[:] = out
+            continue
+        node.update()
+        node.finish(last)
+    return fresh.root.values[anchor]
 
 
 def decided(monitor: Monitor, anchor: int, known_from: int, last: int, ended: bool) -> int:
-    """The earliest sample after which the verdict at *anchor* was certain: its interval
-    (:func:`bounds_at`) lay above 0 or below 0; *last* (where the value became known) when it never did.
+    """The earliest sample after which the verdict at *anchor* was certain: the robustness's interval
+    (:func:`bound_at`) lay above 0 or below 0; *last* (where the value became known) when it never did.
 
     Certainty only grows with the samples known, so this is a binary search over [*known_from*, *last*].
     *ended*: the trace ended at *last* (a formula that reads to the end of the run).
     """
-    root = monitor.root
-    end = last if ended else None
+    value = monitor.root.values[anchor]
 
     def certain(k: int) -> bool:
-        lo, hi = bounds_at(root, anchor, k, end if k >= last else None)
-        return lo > 0 or hi < 0
+        if k >= last:
+            return value != 0
+        return bound_at(monitor, anchor, k, True) > 0 or bound_at(monitor, anchor, k, False) < 0
 
     low, high = known_from, last
     if not certain(high):

@@ -9,8 +9,10 @@ interval when every later sample may be anything, worked out by the definitions 
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
+import os
 from pathlib import Path
 
 import jsonschema
@@ -440,3 +442,43 @@ def test_report_json_fits_the_schema_and_other_types_are_unchanged():
     schema = json.loads((ROOT / "schemas" / "report.schema.json").read_text())
     jsonschema.validate(document, schema)
     assert "decided" in document["oracles"][0] and "decided" not in document["oracles"][1]
+
+
+# -- the examples ----------------------------------------------------------------------------------------
+
+EXAMPLES = ROOT / "examples" / "temporal"
+ARCH = {"at1": "pass", "at2": "fail", "at51": "pass", "at52": "pass", "at53": "pass", "at54": "pass",
+        "at6a": "pass", "at6b": "pass", "at6c": "pass", "cc1": "pass", "cc2": "fail", "cc3": "fail",
+        "cc4": "fail", "cc5": "fail", "afc27": "pass", "afc29": "fail"}  # fmt: skip
+
+
+def test_arch_comp_requirements_run_on_the_example_plants():
+    """Every ARCH-COMP requirement of examples/temporal/ runs to its horizon with the verdict README.md gives;
+    its margin's sign is the verdict's (0 only for the gear requirements' == atoms), and decided <= at."""
+    from btgen_pytrees.leaves import default_registry
+
+    registry = default_registry([str(EXAMPLES / "arch.py")])
+    for name, verdict in ARCH.items():
+        report = run(load(str(EXAMPLES / f"{name}.json"), registry=registry), registry=registry, record=False)
+        oracle = report.oracles[0]
+        assert (report.verdict, oracle.verdict) == (verdict, verdict), name
+        assert oracle.margin is not None and (oracle.margin > 0 if verdict == "pass" else oracle.margin < 0) or \
+            oracle.margin == 0 and name.startswith("at5"), name  # fmt: skip
+        assert oracle.decided is not None and oracle.decided <= oracle.at + 1e-9, name
+        assert oracle.name.startswith(("G[", "(G[")), name  # the source formula, as ARCH-COMP writes it
+
+
+needs_sumo = pytest.mark.skipif(
+    importlib.util.find_spec("libsumo") is None and not os.environ.get("CI"),
+    reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)",
+)
+
+
+@needs_sumo
+def test_response_requirement_on_sumo():
+    report = run(load(str(EXAMPLES / "response_sumo.json")))
+    by_id = {o.id: o for o in report.oracles}
+    assert report.verdict == "pass"
+    response = by_id["T1"]
+    assert response.verdict == "pass" and response.margin > 0
+    assert 2.0 <= response.decided <= 3.5 and response.at == pytest.approx(3.5)  # the lead braked at 2 s

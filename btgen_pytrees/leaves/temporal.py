@@ -27,7 +27,7 @@ from py_trees.common import Status
 from ..contracts.environment import Environment
 from ..expressions import ExpressionError, format_number
 from ..model import Criterion
-from ..monitor import Monitor, decided, holds, ticks_of
+from ..monitor import Monitor, Node, decided, holds
 from .oracles import MAX_SAMPLES, Oracle, Outcome
 from .simulated import reached
 
@@ -46,6 +46,7 @@ class Temporal(Oracle):
         self.entry: py_trees.behaviour.Behaviour | None = None  # the node an entry anchor watches
         self.anchor: int | None = None  # the anchor's sample, once known
         self.anchor_known = 0  # the sample on which the anchor became known
+        self.history: list[dict[str, Any]] = []  # the values read on each tick (what the explanation names)
 
     def waits_for_execute(self) -> bool:
         return self.criterion.expect.span == float("inf")  # type: ignore[union-attr]
@@ -62,6 +63,7 @@ class Temporal(Oracle):
         super().initialise()
         self.monitor = Monitor(self.criterion.expect, self.criterion.tick)  # type: ignore[arg-type]
         self.anchor = None
+        self.history = []
         span = self.monitor.root.span
         self.outcome.message = "the run ended before the anchor" if self.criterion.anchor else (
             f"the run ended before its horizon ({self.horizon_text(ticks_of_anchor(self.criterion))})"
@@ -79,6 +81,7 @@ class Temporal(Oracle):
         self.judged = k + 1
         expect = self.criterion.expect
         values = self.env.values(expect.ordered_names, self.client)
+        self.history.append(values)
         samples = self.samples
         if (not samples or samples[-1][1] != values) and len(samples) < MAX_SAMPLES:
             samples.append((now, values))
@@ -117,7 +120,7 @@ class Temporal(Oracle):
         first = decided(monitor, anchor, max(self.anchor_known, 0), k, ended)
         at = now
         self.outcome = Outcome("pass" if ok else "fail", at, "", values, margin)
-        self.outcome.decided = first * tick
+        self.outcome.decided = round(first * tick, 9)
         self.outcome.message = self.why(ok, margin, anchor, first)
         self.feedback_message = self.outcome.message
         return _SUCCESS if ok else _FAILURE
@@ -136,9 +139,71 @@ class Temporal(Oracle):
 
     def why(self, ok: bool, margin: float, anchor: int, first: int) -> str:
         tick = self.criterion.tick
-        verdict = "held" if ok else "violated"
-        return (f"{self.criterion.expect.source} {verdict} at {anchor * tick:.6g} s (margin {format_number(margin)}); "
-                f"certain after the tick at {first * tick:.6g} s")  # fmt: skip
+        head = f"{self.criterion.expect.source} {'held' if ok else 'violated'} at {anchor * tick:.6g} s (margin {format_number(margin)})"
+        reason = "" if ok else explain(self.monitor.root, anchor, tick, self.history)
+        return f"{head}{': ' + reason if reason else ''}; certain after the tick at {first * tick:.6g} s"
+
+
+def explain(node: Node, t: int, tick: float, history: list[dict[str, Any]], depth: int = 0) -> str:
+    """Why *node* is false (its robustness < 0, or 0 and false) at sample *t*: the sub-formula and the tick
+    that decided it, followed down to an atom and the values it read.
+
+    For ``always``, the tick of the worst value; for ``eventually``, that it never held in its window and
+    its best value; for ``until``/``since``, which side gave out; for ``->``, the premise that held and
+    the consequence that failed.
+    """
+    if depth > 8:
+        return ""
+    op, kids, source = node.formula.op, node.children, node.formula.source
+    at = f"{t * tick:.6g} s"
+    if op == "atom":
+        values = history[t] if t < len(history) else {}
+        names = node.formula.atom.ordered_names if node.formula.atom is not None else ()
+        shown = ", ".join(f"{n}={format_number(values[n])}" for n in names if n in values)
+        return f"{source} false at {at}" + (f" ({shown})" if shown else "")
+    deeper = lambda child, u: explain(child, u, tick, history, depth + 1)  # noqa: E731
+    if op == "not":
+        return f"{kids[0].formula.source} held at {at} (margin {format_number(kids[0].values[t])})"
+    if op == "and":
+        worst = min(kids, key=lambda c: c.values[t])
+        return deeper(worst, t)
+    if op == "or":
+        return "no side held: " + "; ".join(deeper(c, t) for c in kids)
+    if op == "implies":
+        premise, consequence = kids
+        return (f"the premise {premise.formula.source} held at {at} (margin {format_number(premise.values[t])}) "
+                f"and the consequence failed: {deeper(consequence, t)}")  # fmt: skip
+    child = kids[0]
+    a, b = node.low, node.high
+    end = len(child.values) - 1
+    if op in ("always", "eventually"):
+        window = range(t + a, (end if b is None else min(t + b, end)) + 1)
+    elif op in ("once", "historically"):
+        window = range(0 if b is None else max(t - b, 0), t - a + 1)
+    else:
+        window = range(0)
+    if op in ("always", "historically"):
+        u = min(window, key=lambda v: child.values[v])
+        return f"{op} failed at {u * tick:.6g} s: {deeper(child, u)}"
+    if op in ("eventually", "once"):
+        span = f"[{window.start * tick:.6g}, {(window.stop - 1) * tick:.6g}] s" if window else "an empty window"
+        if not window:
+            return f"{source}: {span}"
+        u = max(window, key=lambda v: child.values[v])
+        return f"{child.formula.source} never held in {span}; its best value {format_number(child.values[u])} at {u * tick:.6g} s"
+    left, right = kids
+    if op == "until":
+        top = min(t + (b or 0), len(right.values) - 1)
+        candidates = range(t + a, top + 1)
+        if not candidates or all(right.values[u] < 0 or right.values[u] == 0 and not holds(right, u) for u in candidates):
+            best = max(candidates, key=lambda v: right.values[v]) if candidates else t
+            return f"{right.formula.source} never held in [{(t + a) * tick:.6g}, {top * tick:.6g}] s (its best value " \
+                f"{format_number(right.values[best])} at {best * tick:.6g} s)"
+        first = next(u for u in candidates if right.values[u] > 0 or holds(right, u))
+        gave = next((w for w in range(t, first) if left.values[w] < 0 or not holds(left, w)), t)
+        return f"{left.formula.source} gave out at {gave * tick:.6g} s, before {right.formula.source} held at {first * tick:.6g} s"
+    low = 0 if b is None else max(t - b, 0)
+    return f"{right.formula.source} did not hold in [{low * tick:.6g}, {(t - a) * tick:.6g}] s with {left.formula.source} since"
 
 
 def ticks_of_anchor(criterion: Criterion) -> int:

@@ -271,11 +271,12 @@ class Report:
 
         why = self.why()
 
-        def case(name: str, outcome: str, message: str, at: float | None, out: str = "", margin: float | None = None) -> None:
+        def case(name: str, outcome: str, message: str, at: float | None, out: str = "", margin: float | None = None,
+                 decided: float | None = None) -> None:  # fmt: skip
             el = ET.SubElement(suite, "testcase", classname=f"btgen.{self.test}", name=name,
                                time=f"{at:g}" if at is not None else "0")  # fmt: skip
-            if margin is not None:
-                _properties(el, margin=margin)
+            if margin is not None or decided is not None:  # decided: temporal criteria only
+                _properties(el, **{k: v for k, v in (("margin", margin), ("decided", decided)) if v is not None})
             if outcome in counts:
                 counts[outcome] += 1
                 body = message or outcome
@@ -304,13 +305,13 @@ class Report:
             name = f"{o.label} ({o.type}: {o.expect})"
             if not self.decisive(o):
                 note = f"{o.verdict}" + (f" at {o.at:g} s" if o.at is not None else "") + (f": {o.message}" if o.message else "")
-                case(name, "pass", "", o.at, f"{note}; not counted: its || group passed", o.margin)
+                case(name, "pass", "", o.at, f"{note}; not counted: its || group passed", o.margin, o.decided)
             elif o.verdict == "fail":
-                case(name, "failure", o.message or "failed", o.at, margin=o.margin)
+                case(name, "failure", o.message or "failed", o.at, margin=o.margin, decided=o.decided)
             elif o.verdict == "inconclusive":
-                case(name, "skipped", o.message or "undecided when the run ended", o.at, margin=o.margin)
+                case(name, "skipped", o.message or "undecided when the run ended", o.at, margin=o.margin, decided=o.decided)
             else:
-                case(name, "pass", "", o.at, margin=o.margin)
+                case(name, "pass", "", o.at, margin=o.margin, decided=o.decided)
         if self.verdict != "pass" and counts["failure"] + counts["error"] == 0:  # never green on a red run
             counts["error"] += 1
             el = suite.find("testcase")

@@ -579,3 +579,24 @@ def test_a_directory_of_cases_leaves_out_the_sidecars():
     from btgen_pytrees import batch
     found = [os.path.basename(p) for p in batch.expand([str(EXAMPLES)])]
     assert found == []  # the examples' .json files there are all sidecars of .xosc scenarios
+
+
+def test_reach_position_and_distance_conditions_use_the_roads_world_point(tmp_path):
+    trigger = """<StartTrigger><ConditionGroup>
+      <Condition name="there" delay="0" conditionEdge="none"><ByEntityCondition>
+        <TriggeringEntities triggeringEntitiesRule="any"><EntityRef entityRef="Ego"/></TriggeringEntities>
+        <EntityCondition><ReachPositionCondition tolerance="2"><Position><LanePosition roadId="1" laneId="-2" s="100" offset="0"/></Position></ReachPositionCondition></EntityCondition>
+      </ByEntityCondition></Condition>
+      <Condition name="near" delay="0" conditionEdge="none"><ByEntityCondition>
+        <TriggeringEntities triggeringEntitiesRule="any"><EntityRef entityRef="Lead"/></TriggeringEntities>
+        <EntityCondition><DistanceCondition value="10" freespace="false" rule="lessThan"><Position><WorldPosition x="300" y="-5.25"/></Position></DistanceCondition></EntityCondition>
+      </ByEntityCondition></Condition>
+    </ConditionGroup></StartTrigger>"""
+    body = BRAKE.replace(BRAKE[BRAKE.index("<StartTrigger><ConditionGroup><Condition name=\"Gap\""):BRAKE.index("</Event>")], trigger)
+    doc = read_openscenario(write(tmp_path, scenario(body, PARAMS)))
+    when = next(e for e in doc["execute"] if e["id"] == "Brake")["when"]
+    # lane -2 of the straight road: its centre 5.25 m right of the reference line (two 3.5 m lanes)
+    assert when == ("((Ego.ref_x - 100) * (Ego.ref_x - 100) + (Ego.ref_y + 5.25) * (Ego.ref_y + 5.25) <= 4) && "
+                    "((Lead.ref_x - 300) * (Lead.ref_x - 300) + (Lead.ref_y + 5.25) * (Lead.ref_y + 5.25) < 100)")
+    from btgen_pytrees.expressions import parse
+    assert parse(when).evaluate({"Ego.ref_x": 101, "Ego.ref_y": -5.0, "Lead.ref_x": 295, "Lead.ref_y": -5.25}) is True

@@ -190,7 +190,7 @@ class ConditionWriter:
             raise XmlProblem(target, f"unknown collision target {target.tag}")
         if tag in ("ReachPositionCondition", "DistanceCondition") and self.position is not None:
             x, y = self.position(c.need_child("Position"))
-            dx, dy = f"({t}.ref_x - {number(x)})", f"({t}.ref_y - {number(y)})"
+            dx, dy = f"({t}.ref_x {'-' if x >= 0 else '+'} {number(abs(x))})", f"({t}.ref_y {'-' if y >= 0 else '+'} {number(abs(y))})"
             if tag == "ReachPositionCondition":
                 tol = s.number(c, "tolerance")
                 return f"{dx} * {dx} + {dy} * {dy} <= {number(tol * tol)}"

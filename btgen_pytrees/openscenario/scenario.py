@@ -166,7 +166,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
         if child.tag == "EntitySelection":
             raise XmlProblem(child, "EntitySelection is not supported")
     names = list(entities)
-    timeline = Timeline(scope, names, catalogs, options.controllers.get)
+    timeline = Timeline(scope, names, catalogs, options.controllers.get, road=os.path.join(base, road))
     timeline.declare_variables(root.child("VariableDeclarations"))
     board = root.need_child("Storyboard")
     init = board.need_child("Init")

@@ -27,6 +27,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from ..systems.sumo.opendrive import OpenDriveError, read_opendrive
+from ..systems.sumo.roads import resolve
 from .actions import ActionWriter
 from .conditions import Condition, ConditionWriter
 from .parameters import Scope
@@ -73,7 +75,8 @@ class Timeline:
     """The entries, signals and stop conditions of one storyboard."""
 
     def __init__(self, scope: Scope, entities: list[str], catalogs: Any,
-                 controller: Callable[[str], str | None] = lambda name: None):  # fmt: skip
+                 controller: Callable[[str], str | None] = lambda name: None,
+                 road: str | None = None):  # fmt: skip
         self.scope = scope
         self.entities = entities
         self.catalogs = catalogs
@@ -85,7 +88,9 @@ class Timeline:
         self.elements: list[Element] = []
         self.variables: dict[str, str] = {}
         self.pending: list[tuple[Element, str, Node, list[Condition]]] = []  # state references resolved at the end
-        self.conditions = ConditionWriter(scope, entities, self._state_expression, self._variable, clock=self.clock)
+        self.road = road
+        self._network: Any = None
+        self.conditions = ConditionWriter(scope, entities, self._state_expression, self._variable, self.world, clock=self.clock)
         self.motion: Any = None  # what an action needs beyond itself for its leaf (.motion), set once the Init is read
         self.actions = ActionWriter(scope, entities, self._variable, controller)
         self.events: list[Element] = []
@@ -135,6 +140,25 @@ class Timeline:
             return self.variables[name]
         known = ", ".join(sorted(self.variables)) or "none declared"
         raise XmlProblem(node, f"unknown variable {name!r} ({known})")
+
+    def world(self, node: Node) -> tuple[float, float]:
+        """The world point of an absolute ``Position`` (ReachPosition, Distance): the road system's mapping."""
+        position = self.actions.position(node)
+        kind = next(iter(position))
+        if "entityRef" in position[kind]:
+            raise XmlProblem(node, f"a {kind} in a condition is not supported (a position of its own is)")
+        if self._network is None:
+            if self.road is None:
+                raise XmlProblem(node, "a position in a condition needs the scenario's road")
+            try:
+                self._network = read_opendrive(self.road)
+            except OpenDriveError as exc:
+                raise XmlProblem(node, f"the road: {exc}") from None
+        try:
+            pose = resolve(self._network, position, {}, "")
+        except OpenDriveError as exc:
+            raise XmlProblem(node, str(exc).lstrip(": ")) from None
+        return float(pose.x), float(pose.y)
 
     def clock(self) -> str:
         """The signal of the run's time (SimulationTimeCondition): the road system's ``sim.time``."""

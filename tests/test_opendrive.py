@@ -132,7 +132,8 @@ def test_netconvert_output_is_cached_by_content_and_the_same_bytes_every_time(tm
     ("<routes/>", "road.xodr: not an OpenDRIVE file"),
     (STRAIGHT.replace("<line/>", "<include file='/etc/passwd'/>"), "is not allowed"),
     (STRAIGHT.replace("<line/>", ""), "road '7' has no reference line"),
-], ids=["missing", "doctype", "malformed", "not-opendrive", "include", "no-geometry"])  # fmt: skip
+    (STRAIGHT.replace("<line/>", "<line/></geometry><geometry s='1' x='0' y='0' hdg='0' length='nan'><line/>"), "length='nan' is not a finite number"),
+], ids=["missing", "doctype", "malformed", "not-opendrive", "include", "no-geometry", "nan"])  # fmt: skip
 def test_a_road_that_is_missing_unsafe_or_unreadable_is_exit_2_naming_the_file(
         tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], content: str | None, message: str) -> None:  # fmt: skip
     if content is not None:
@@ -151,7 +152,8 @@ def test_a_road_that_is_missing_unsafe_or_unreadable_is_exit_2_naming_the_file(
     ({"RelativeLanePosition": {"entityRef": "Lead", "dLane": 0, "ds": 5}}, "/system/entities/Ego/position/RelativeLanePosition/entityRef",
      "'Lead' is not an entity placed before"),
     ({"GeoPosition": {}}, "/system/entities/Ego/position", "give exactly one of LanePosition"),
-], ids=["road", "lane", "s", "later-entity", "kind"])  # fmt: skip
+    ({"LanePosition": {"roadId": "7", "laneId": -1, "s": "ten"}}, "/system/entities/Ego/position/LanePosition/s", "expected a number"),
+], ids=["road", "lane", "s", "later-entity", "kind", "not-a-number"])  # fmt: skip
 def test_a_position_off_the_road_is_exit_2_with_its_json_path(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str],
                                                              position: dict[str, Any], where: str, message: str) -> None:  # fmt: skip
     (tmp_path / "road.xodr").write_text(STRAIGHT)
@@ -168,6 +170,7 @@ def placements(road: str) -> dict[str, Any]:
         "Far": entity({"LanePosition": {"roadId": "0", "laneId": -5, "s": 300.0, "offset": 0.4}}, 0.0, length=12.0, width=2.5, center=[4.0, 0.0, 1.5]),
         "Onc": entity({"RoadPosition": {"roadId": "0", "s": 500.0, "t": 8.0}}, 20.0),
         "Obj": entity({"RelativeObjectPosition": {"entityRef": "Ego", "dx": 30.0, "dy": -3.5}}, 0.0),
+        "Lane": entity({"RelativeLanePosition": {"entityRef": "Ego", "dLane": 1, "dsLane": 40.0}}, 0.0),
     }  # fmt: skip
 
 
@@ -183,6 +186,7 @@ def expected(k: float) -> dict[str, tuple[int, float, float]]:
         obj_s = (math.atan2(ox - centre[0], -(oy - centre[1])) if k > 0 else math.atan2(ox, oy - centre[1])) / abs(k)
         obj_t = (1 / k - math.copysign(math.hypot(ox - centre[0], oy - centre[1]), 1 / k))
     return {"Ego": (-4, 5.0, -8.0), "Side": (-3, 45.0, -4.5), "Far": (-5, 300.0, -11.1), "Onc": (4, 500.0, 8.0),
+            "Lane": (-3, 5.0 + 40.0 / (1 - k * -4.5), -4.5),  # 40 m along lane -3's centre, of radius 1/k + 4.5
             "Obj": (next(lane for lane, (low, high) in BORDERS.items() if low <= obj_t <= high), obj_s, obj_t)}  # fmt: skip
 
 
@@ -489,3 +493,24 @@ def test_road_actions_name_entities_of_a_road_case(tmp_path: pathlib.Path, capsy
     err = capsys.readouterr().err
     assert "case.json: /execute/0/params/relative/entity: unknown entity 'Egoo' (did you mean 'Ego'?)" in err, err
     assert "case.json: /execute/1/params/entity: unknown entity 'Lead'" in err
+
+
+def test_an_unknown_key_of_an_entity_is_refused_not_ignored(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    case = write_case(tmp_path, "road.xodr", {"Ego": {**entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}}), "lenght": 4}})
+    assert main(["validate", str(case)]) == 2
+    assert "case.json: /system/entities/Ego/lenght: not a key of an entity" in capsys.readouterr().err
+
+
+def test_the_end_of_the_road_is_a_signal_until_sumo_takes_the_vehicle_off(tmp_path: pathlib.Path) -> None:
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 570}}, 10.0),
+                "Stay": entity({"LanePosition": {"roadId": "7", "laneId": -2, "s": 100}}, 0.0)}  # fmt: skip
+    case = write_case(tmp_path, "road.xodr", entities, timeout=4, expect="Stay.present")
+    report, signals, read = ticks(case, lambda ls: ls.vehicle.getIDList())
+    ends = [s.get("Ego.end_of_road") for s in signals]
+    last = max(k for k, s in enumerate(signals) if "Ego" in read[k])
+    # its front reaches the road's end (600 m) 600 - 570 - 3.55 = 26.45 m on: on the state at 2.6 s it is within
+    # one step of it, and SUMO takes it off in the step after
+    assert ends[last] is True and not any(ends[:last]) and last == 26
+    assert "Ego.s" not in signals[last + 1]  # gone: no value

@@ -192,24 +192,30 @@ class Road:
     predecessor: tuple[str, str] | None = None  # (elementType, elementId)
     successor: tuple[str, str] | None = None
     _samples: list[tuple[float, float, float]] = field(default_factory=list, repr=False)
+    _starts: tuple[list[float], list[float], list[float]] | None = field(default=None, repr=False)
+
+    def starts(self) -> tuple[list[float], list[float], list[float]]:
+        """Where each geometry piece, lane offset record and lane section starts (``s``), computed once."""
+        if self._starts is None:
+            self._starts = ([g.s for g in self.geometries], [o[0] for o in self.offsets], [sec.s for sec in self.sections])
+        return self._starts
 
     def reference(self, s: float) -> tuple[float, float, float]:
         """``(x, y, heading)`` of the reference line at *s* (clamped to the road)."""
         s = min(max(s, 0.0), self.length)
-        starts = [g.s for g in self.geometries]
-        i = max(0, bisect.bisect_right(starts, s) - 1)
+        i = max(0, bisect.bisect_right(self.starts()[0], s) - 1)
         g = self.geometries[i]
         return g.at(min(s - g.s, g.length))
 
     def lane_offset(self, s: float) -> float:
         if not self.offsets:
             return 0.0
-        i = max(0, bisect.bisect_right([o[0] for o in self.offsets], s) - 1)
+        i = max(0, bisect.bisect_right(self.starts()[1], s) - 1)
         start, a, b, c, d = self.offsets[i]
         return _poly((a, b, c, d), s - start)
 
     def section(self, s: float) -> LaneSection:
-        i = max(0, bisect.bisect_right([sec.s for sec in self.sections], s) - 1)
+        i = max(0, bisect.bisect_right(self.starts()[2], s) - 1)
         return self.sections[i]
 
     def borders(self, s: float) -> dict[int, tuple[float, float]]:

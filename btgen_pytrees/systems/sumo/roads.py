@@ -38,7 +38,7 @@ from typing import Any, Mapping
 from .opendrive import Network, OpenDriveError, Pose, read_opendrive
 
 __all__ = ["NETCONVERT_OPTIONS", "Entity", "RoadCase", "SumoLane", "SumoNet", "cache_dir", "netconvert_binary",
-           "convert", "road_case", "place", "POSITION_KINDS", "CATEGORIES", "write_sumo_files"]
+           "convert", "road_case", "place", "POSITION_KINDS", "CATEGORIES", "ENTITY_KEYS", "write_sumo_files"]
 
 NETCONVERT_OPTIONS = (
     "--offset.disable-normalization", "true",  # SUMO's x, y are the OpenDRIVE world coordinates
@@ -57,6 +57,10 @@ CATEGORIES = {"car": "passenger", "van": "delivery", "truck": "truck", "trailer"
               "bus": "bus", "motorbike": "motorcycle", "bicycle": "bicycle", "train": "rail", "tram": "tram",
               "pedestrian": "ignoring", "wheelchair": "ignoring", "animal": "ignoring", "misc": "ignoring"}  # fmt: skip
 """OpenSCENARIO's vehicle category (and pedestrians, misc objects) -> SUMO's vehicle class."""
+
+ENTITY_KEYS = ("length", "width", "height", "center", "category", "max_speed", "max_accel", "max_decel", "position",
+               "speed", "controller", "distance")  # fmt: skip
+"""The keys an entity of ``entities`` may have (docs/opendrive.md); any other is refused, not ignored."""
 
 _lock = threading.Lock()
 
@@ -495,6 +499,9 @@ def entities_of(raw: Any, where: str = "/system/entities") -> dict[str, Entity]:
             raise OpenDriveError(f"{at}: an entity's name must be a signal name (a letter, then letters, digits, _), not 'sim'")
         if not isinstance(spec, Mapping):
             raise OpenDriveError(f"{at}: expected an object")
+        for key in spec:
+            if key not in ENTITY_KEYS:
+                raise OpenDriveError(f"{at}/{key}: not a key of an entity (its keys: {', '.join(ENTITY_KEYS)})")
         values: dict[str, Any] = {}
         for key in ("length", "width", "height", "max_speed", "max_accel", "max_decel"):
             if key in spec:

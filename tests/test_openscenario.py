@@ -600,3 +600,13 @@ def test_reach_position_and_distance_conditions_use_the_roads_world_point(tmp_pa
                     "((Lead.ref_x - 300) * (Lead.ref_x - 300) + (Lead.ref_y + 5.25) * (Lead.ref_y + 5.25) < 100)")
     from btgen_pytrees.expressions import parse
     assert parse(when).evaluate({"Ego.ref_x": 101, "Ego.ref_y": -5.0, "Lead.ref_x": 295, "Lead.ref_y": -5.25}) is True
+
+
+def test_an_acts_stop_trigger_stops_what_runs_in_it(tmp_path):
+    act_stop = """<StopTrigger><ConditionGroup><Condition name="enough" delay="0" conditionEdge="rising"><ByValueCondition>
+      <SimulationTimeCondition value="20" rule="greaterThan"/></ByValueCondition></Condition></ConditionGroup></StopTrigger>"""
+    body = BRAKE.replace("</Act></Story>", act_stop + "</Act></Story>")
+    doc = read_openscenario(write(tmp_path, scenario(body, PARAMS)))
+    stop = next(e for e in doc["execute"] if e["name"] == "StopTrigger of Act A")
+    assert (stop["after"], stop["when"], stop["edge"]) == (["A"], "sim.time > 20", "rising")
+    assert {"G", "M", "Brake", "BrakeAction"} <= set(stop["stops"]) and "A" not in stop["stops"]

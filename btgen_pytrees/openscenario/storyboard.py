@@ -277,10 +277,17 @@ class Timeline:
         e.update(self.trigger(node.child("StartTrigger"), [story.id], e["id"]))
         act.id = e["id"]
         self.elements.append(act)
-        if node.child("StopTrigger") is not None:
-            raise XmlProblem(node.need_child("StopTrigger"), "an Act's StopTrigger is not supported (the Storyboard's is)")
+        first = len(self.entries)
         for group in node.all("ManeuverGroup"):
             self.group(group, act)
+        stop = node.child("StopTrigger")
+        if stop is not None:  # 7.6.2: when it fires, the act's running children stop (the entry's 'stops')
+            inside = [x["id"] for x in self.entries[first:]]
+            keys = self.trigger(stop, [act.id], f"{act.id}-stop")
+            if not keys:
+                raise XmlProblem(stop, "an Act's StopTrigger needs a condition")
+            self.entry(f"{act.id}-stop", f"StopTrigger of Act {name}", "constraint", "wait", {"duration": 0}, [act.id],
+                       stops=inside, **keys)  # fmt: skip
 
     def group(self, node: Node, act: Element) -> None:
         name = self.scope.text(node, "name") or "group"

@@ -156,9 +156,9 @@ def job_run(path: str, plugins: Sequence[str], target: str | None, plot: str | N
     (``run --system``). *max_work* is the work budget (default :data:`~.load.MAX_WORK`)."""
     registry = default_registry(plugins)
     case = load(path, registry=registry, system=system)
-    outcome = run_case(path, case, registry, target, plot, junit, max_work, require_complete)
-    with open(path, "rb") as fh:  # read again only to tell a sweep, whose defaults alone ran
-        return defaults_only(outcome, fh.read())
+    with open(path, "rb") as fh:  # read again only to tell a sweep, whose defaults alone ran; before the run,
+        raw = fh.read()  # whose leaves may change directory
+    return defaults_only(run_case(path, case, registry, target, plot, junit, max_work, require_complete), raw)
 
 
 def defaults_only(outcome: Outcome, raw: bytes) -> Outcome:

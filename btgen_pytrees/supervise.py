@@ -12,8 +12,13 @@ died).
 
 Signals: Ctrl-C reaches both processes (the terminal signals its whole
 process group) and a SIGINT or SIGTERM sent to the parent alone is passed on
-to the child, which stops as it always does (130/143). For the CLI's process
-only; the library never forks.
+to the child, which stops as it always does (130/143). User code can ignore
+both signals (``signal.signal(SIGTERM, SIG_IGN)``), so the parent escalates as a
+batch does with its workers: a child still running :data:`STOP_GRACE` seconds
+after the first signal is killed (SIGKILL), and the command ends with 130/143 all
+the same. A child whose parent is gone (killed by user code, or from outside)
+has no one to hand its code to: it stops quietly. For the CLI's process only;
+the library never forks.
 """
 
 from __future__ import annotations
@@ -25,8 +30,13 @@ import sys
 from typing import Any, Callable, NoReturn
 
 from .errors import ExitCode
+from .writing import own_streams
 
-__all__ = ["supervised"]
+__all__ = ["supervised", "STOP_GRACE"]
+
+STOP_GRACE = 2.0
+"""Seconds a supervised command has to stop after SIGINT/SIGTERM (its own workers get half a second
+of them) before it is killed: user code may ignore the signals."""
 
 
 def _death(status: int) -> str:
@@ -59,10 +69,10 @@ def _leave(code: int) -> NoReturn:
     try:
         atexit._run_exitfuncs()
     finally:
-        for stream in (sys.stdout, sys.stderr):
+        for stream in (sys.stdout, sys.stderr, *own_streams()):
             try:
                 stream.flush()
-            except (OSError, ValueError):
+            except (OSError, ValueError, AttributeError):  # closed or replaced by user code (None), a full disk
                 pass
         os._exit(code)
 
@@ -77,8 +87,8 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
     function does not return: once the code is handed over, the child's ``atexit``
     handlers run, its buffers are written and it exits with that code.
     """
-    sys.stdout.flush()
-    sys.stderr.flush()
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
     parent = os.getpid()
     read_end, write_end = os.pipe()
     pid = os.fork()
@@ -93,18 +103,31 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
         finally:
             try:
                 os.write(write_end, bytes([code & 0xFF]))
+            except OSError:  # the parent is gone (user code killed it): no one waits for the code
+                pass
             finally:
                 os.close(write_end)
         _leave(code)
     os.close(write_end)
+    stopping: list[int] = []
 
     def forward(signum: int, frame: Any) -> None:
+        if not stopping:  # the first signal starts the grace period (ITIMER_REAL: SIGALRM when it ends)
+            stopping.append(signum)
+            signal.setitimer(signal.ITIMER_REAL, STOP_GRACE)
         try:
             os.kill(pid, signum)
         except ProcessLookupError:
             pass
 
+    def kill(signum: int, frame: Any) -> None:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
     previous = {s: signal.signal(s, forward) for s in (signal.SIGINT, signal.SIGTERM)}
+    previous[signal.SIGALRM] = signal.signal(signal.SIGALRM, kill)
     try:
         _, status = os.waitpid(pid, 0)  # EINTR is retried (PEP 475) after forward() ran
         os.set_blocking(read_end, False)
@@ -113,11 +136,16 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
         except BlockingIOError:  # a grandchild still holds the pipe open, and nothing was written
             handed = b""
     finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
         os.close(read_end)
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     if handed:
         return handed[0]
+    if stopping and os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGKILL:  # killed after the grace period
+        on_error(f"btgen_pytrees: interrupted by {signal.Signals(stopping[0]).name} (the command did not stop within "
+                 f"{STOP_GRACE:g} s - user code ignores the signal - and was killed)")  # fmt: skip
+        return 128 + stopping[0]
     if os.WIFSIGNALED(status) and os.WTERMSIG(status) in (signal.SIGINT, signal.SIGTERM):  # before its handlers
         on_error(f"btgen_pytrees: interrupted by {signal.Signals(os.WTERMSIG(status)).name}")
         return 128 + os.WTERMSIG(status)

@@ -17,6 +17,17 @@ Rules (docs/limits.md, "Outputs"):
   stays. Targets that are not regular files - ``/dev/null``, ``/dev/stdout``, a
   FIFO, anything under ``/dev`` or ``/proc`` - are written directly: renaming
   over them would replace the device (as root) or fail.
+* A target that passed the checks and still cannot be written when it is made
+  (a full disk, ``/dev/full``, a ``/proc`` or ``/sys`` file that refuses the
+  data) is the environment's fault: :class:`WriteFailed`, a one-line message
+  naming it. A command that ran something still prints its verdict and exits by
+  it (``cli.terminal.deliver``); one that only writes exits 2.
+
+The CLI's own process (:func:`divert_stdout`, :func:`pin_directory`) keeps its
+standard streams and its working directory out of user code's reach: what it
+prints goes through its own copies of file descriptors 1 and 2, which a plugin
+closing or replacing ``sys.stdout`` cannot break, and relative output paths are
+written in the directory they were checked in, wherever a plugin ``chdir``-ed.
 """
 
 from __future__ import annotations
@@ -29,11 +40,77 @@ from typing import Any, Callable, Iterable, Iterator, Sequence, TextIO, Union
 
 from .errors import UserError, printable
 
-__all__ = ["OutputError", "check_target", "check_distinct", "commit", "write_file", "same_file", "is_direct",
-           "emit", "on_stdout", "divert_stdout", "own_stdout", "stdout_isatty", "report_outputs"]  # fmt: skip
+__all__ = ["OutputError", "WriteFailed", "check_target", "check_distinct", "commit", "write_file", "same_file",
+           "is_direct", "emit", "on_stdout", "divert_stdout", "own_stdout", "own_streams", "stdout_stream",
+           "stderr_stream", "stdout_isatty", "report_outputs", "pin_directory", "at_home", "write_stdout_bytes"]  # fmt: skip
 
 _stdout_fd: int | None = None
 """The real standard output while :func:`divert_stdout` is in force (None: not diverted)."""
+
+_own: dict[str, TextIO] = {}
+"""The CLI's own ``stdout`` and ``stderr`` streams while :func:`divert_stdout` is in force: over copies
+of file descriptors 1 and 2 made before any user code ran, so user code closing or replacing
+``sys.stdout``/``sys.stderr`` (or closing descriptor 1 or 2) cannot stop the verdict from being printed."""
+
+_home: list[int] = []
+"""A descriptor of the CLI's working directory while :func:`pin_directory` is in force."""
+
+
+def _stream(fd: int, like: Any) -> TextIO:
+    """A line-buffered text stream over *fd*, encoded like the stream *like* (``PYTHONIOENCODING`` is honoured)."""
+    encoding = getattr(like, "encoding", None) or "utf-8"
+    return open(fd, "w", encoding=encoding, errors="backslashreplace", buffering=1, closefd=True)  # noqa: SIM115
+
+
+def stdout_stream() -> TextIO:
+    """Where btgen_pytrees prints its own output: the CLI's copy of the real stdout, else ``sys.stdout``."""
+    return _own.get("stdout") or sys.stdout
+
+
+def stderr_stream() -> TextIO:
+    """Where btgen_pytrees prints its messages: the CLI's copy of stderr, else ``sys.stderr``."""
+    return _own.get("stderr") or sys.stderr
+
+
+def own_streams() -> tuple[TextIO, ...]:
+    """The CLI's own streams (none unless :func:`divert_stdout` ran), for flushing before the process ends."""
+    return tuple(_own.values())
+
+
+def _flush_user_stdout() -> None:
+    """Write out what user code left in ``sys.stdout``'s buffer (it goes to stderr); user code may have closed
+    or replaced it: nothing to do then."""
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def _lost(name: str) -> None:
+    """The CLI's own stream *name* failed (a full device, a reader gone): close it, dropping what it holds
+    (so the process's end does not try again and print a traceback), and write nothing more there."""
+    stream = _own.get(name)
+    if stream is None:
+        return
+    try:
+        stream.close()
+    except (OSError, ValueError):
+        pass
+    _own[name] = open(os.devnull, "w", encoding="utf-8")  # noqa: SIM115 - lives as long as the process
+
+
+def pin_directory() -> None:
+    """Remember the working directory: the CLI's process calls this before any user code runs, so relative
+    output paths are written (:func:`commit`) where they were checked, whatever directory user code moved to."""
+    if not _home:
+        _home.append(os.open(".", os.O_RDONLY))
+
+
+def at_home() -> None:
+    """Back in the directory :func:`pin_directory` remembered (a no-op unless it ran): user code may have
+    changed directory (at import, in ``register()``, in a leaf) since the command checked its paths."""
+    if _home:
+        os.fchdir(_home[0])
 
 
 def divert_stdout() -> None:
@@ -49,6 +126,8 @@ def divert_stdout() -> None:
         return
     sys.stdout.flush()
     _stdout_fd = os.dup(1)
+    _own["stdout"] = _stream(os.dup(1), sys.stdout)
+    _own["stderr"] = _stream(os.dup(2), sys.stderr)
     os.dup2(2, 1)
 
 
@@ -58,13 +137,13 @@ def own_stdout() -> Iterator[None]:
     if _stdout_fd is None:
         yield
         return
-    sys.stdout.flush()
+    _flush_user_stdout()
     os.dup2(_stdout_fd, 1)
     try:
         yield
     finally:
         try:
-            sys.stdout.flush()
+            _flush_user_stdout()
         finally:
             os.dup2(2, 1)
 
@@ -83,7 +162,7 @@ def emit(text: str, stream: TextIO | None = None) -> None:
     Characters the stream cannot encode become ``\\xNN``-style replacements rather
     than an exception (non-UTF-8 file names, a C locale).
     """
-    target = stream or sys.stdout
+    target = stream or stdout_stream()
     safe = printable(text, keep_newlines=True)
     encoding = getattr(target, "encoding", None) or "utf-8"
     try:
@@ -91,14 +170,43 @@ def emit(text: str, stream: TextIO | None = None) -> None:
     except (UnicodeEncodeError, LookupError):
         safe = safe.encode(encoding, "backslashreplace").decode(encoding, "replace")
     if stream is None:
-        with own_stdout():
+        with _printing("-", "stdout"):
             target.write(safe)
+            target.flush()
     else:
-        target.write(safe)
+        with _printing(None, "stderr" if target is _own.get("stderr") else ""):
+            target.write(safe)
+
+
+@contextmanager
+def _printing(path: str | None, name: str) -> Iterator[None]:
+    """Writing to the CLI's stream *name*: a failure drops the stream (:func:`_lost`); on stdout (*path* ``-``) it
+    is :class:`WriteFailed` (a reader gone is still ``BrokenPipeError``), on stderr it is ignored (nowhere is
+    left to say it)."""
+    try:
+        yield
+    except OSError as exc:
+        if name:
+            _lost(name)
+        if path is None:
+            return
+        if isinstance(exc, BrokenPipeError):
+            raise
+        raise WriteFailed(path, exc) from None
 
 
 class OutputError(UserError, ValueError):
     """An output path that cannot be used; ``str()`` is one line for the user (exit 2)."""
+
+
+class WriteFailed(OutputError, OSError):
+    """An output that passed the checks and could not be written when it was made: a full disk or device,
+    a ``/proc`` or ``/sys`` file that refuses the data. ``path``: the output (``-``: standard output)."""
+
+    def __init__(self, path: str, error: OSError):
+        shown = "standard output" if path == "-" else printable(path)
+        super().__init__(f"{shown}: cannot write: {error.strerror or error}")
+        self.path = path
 
 
 def is_direct(path: str) -> bool:
@@ -214,11 +322,14 @@ def _write_direct(path: str, data: Data) -> None:
             fh.write(chunk)
 
 
-def _write_stdout(data: Data) -> None:
-    sys.stdout.flush()
-    for chunk in _chunks(data):
-        sys.stdout.buffer.write(chunk)
-        sys.stdout.buffer.flush()
+def write_stdout_bytes(data: Data) -> None:
+    """*data* on the real standard output, as bytes (:class:`WriteFailed` if it cannot take them)."""
+    out = stdout_stream()
+    with _printing("-", "stdout" if out is _own.get("stdout") else ""):
+        out.flush()
+        for chunk in _chunks(data):
+            out.buffer.write(chunk)
+            out.buffer.flush()
 
 
 def report_outputs(report: Any, json: str | None = None, junit: str | None = None, plot: str | None = None,
@@ -250,6 +361,7 @@ def commit(outputs: Iterable[tuple[str, Data]]) -> list[str]:
     making them still leaves no output changed.
     """
     outputs = list(outputs)
+    at_home()  # relative paths: where they were checked
     in_place_only = all(is_direct(path) for path, _ in outputs)
     staged: list[tuple[str, str]] = []  # (tmp, final)
     direct: list[tuple[str, Data]] = []
@@ -261,17 +373,25 @@ def commit(outputs: Iterable[tuple[str, Data]]) -> list[str]:
             final = os.path.realpath(path)  # follow a symlink: replace what it points to, keep the link
             tmp = f"{final}.tmp{os.getpid()}"
             staged.append((tmp, final))
-            with open(tmp, "wb") as fh:
-                for chunk in _chunks(data):
-                    fh.write(chunk)
+            try:
+                with open(tmp, "wb") as fh:
+                    for chunk in _chunks(data):
+                        fh.write(chunk)
+            except OSError as exc:  # a full disk: the environment's fault, named
+                raise WriteFailed(path, exc) from None
         for tmp, final in staged:
             os.replace(tmp, final)
-        with own_stdout():  # '-' and /dev/stdout are the real stdout
-            for path, data in direct:
-                if path == "-":
-                    _write_stdout(data)
-                else:
+        for path, data in direct:
+            if path == "-":
+                write_stdout_bytes(data)
+                continue
+            try:
+                with own_stdout():  # /dev/stdout is the real stdout
                     _write_direct(path, data)
+            except BrokenPipeError:
+                raise
+            except OSError as exc:  # /dev/full, a /proc or /sys file that refuses the data
+                raise WriteFailed(path, exc) from None
     finally:
         for tmp, _ in staged:
             if os.path.lexists(tmp):

@@ -23,7 +23,7 @@ from typing import Any, Callable, Sequence
 from .. import __version__
 from ..errors import ExitCode, Interrupt, InvalidTestCase, UserError
 from ..leaves import loads_user_code
-from ..writing import divert_stdout
+from ..writing import divert_stdout, pin_directory
 from ..parallel import Interrupted
 from ..supervise import supervised
 from ..text import did_you_mean
@@ -107,6 +107,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return ExitCode.INVALID
     if argv is None:  # the real CLI process
         divert_stdout()  # stdout carries only what btgen_pytrees prints; user code's prints go to stderr
+        pin_directory()  # outputs land where they were checked, whatever directory user code moves to
         if loads_user_code(getattr(args, "plugin", None) or ()):  # no verdict, no exit 0 (btgen_pytrees.supervise)
             return supervised(lambda: _command(args, real=True), err)
     return _command(args, real=argv is None)

@@ -9,7 +9,7 @@ from typing import Sequence
 
 from ..batch import output_names
 from ..errors import UsageError
-from ..writing import check_target
+from ..writing import at_home, check_target
 
 __all__ = ["check_output", "check_out_dir", "make_out_dir", "targets"]
 
@@ -43,6 +43,7 @@ def check_out_dir(args: argparse.Namespace, files: list[str], writes_json: bool)
 
 
 def make_out_dir(args: argparse.Namespace) -> None:
+    at_home()  # where --out-dir was checked, whatever directory user code moved to
     try:
         os.makedirs(args.out_dir, exist_ok=True)
     except OSError as exc:

@@ -14,7 +14,6 @@ import importlib.util
 import math
 import os
 import signal
-import sys
 from typing import Any
 
 from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
@@ -26,7 +25,7 @@ from ..falsify.sampler import HINT, METHODS, available
 from ..falsify.search import Search
 from ..falsify.space import Space
 from ..load import validate
-from ..writing import check_distinct, check_target, commit, emit, on_stdout, same_file
+from ..writing import check_distinct, check_target, same_file
 from ..parallel import Interrupted, Workers, progress_stream
 from ..run.plot import plot_format
 from ..load.sweep import load_sweep
@@ -37,6 +36,7 @@ from ..systems.sumo import keep_simulations, release_simulations, reuse_simulati
 from .checks import check_out_dir, make_out_dir
 from .options import Parents, registry
 from .sweep import add_executor_options, make_executor, run_options
+from .terminal import deliver, err
 
 __all__ = ["add_parser", "cmd_falsify"]
 
@@ -170,15 +170,13 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         make_out_dir(args)
         cases, notes = counterexample_files(sweep, data, args.out_dir, known)
         for note in notes:
-            print(f"btgen_pytrees: {note}", file=sys.stderr)
+            err(f"btgen_pytrees: {note}")
         outputs += cases
     if args.plot:
         outputs.append((args.plot, search_plot(search, data, plot_format(args.plot))))
-    commit(outputs)
+    code = 128 + signum if signum is not None else ExitCode.FAIL if data["failures"] else ExitCode.OK
     # the real stdout (the CLI sends file descriptor 1 to stderr for user code); stderr when --json is stdout
-    emit(table(data), sys.stderr if on_stdout([args.json]) else None)
+    deliver(outputs, table(data), code)
     if signum is not None:
-        emit(f"btgen_pytrees: interrupted by {signal.Signals(signum).name} after {len(search.runs)} runs; what was found is kept\n",
-             sys.stderr)  # fmt: skip
-        return 128 + signum
-    return ExitCode.FAIL if data["failures"] else ExitCode.OK
+        err(f"btgen_pytrees: interrupted by {signal.Signals(signum).name} after {len(search.runs)} runs; what was found is kept")
+    return code

@@ -9,11 +9,11 @@ import signal
 from typing import Any, Callable
 
 from ..batch import expand
-from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
-from ..writing import commit, emit
+from ..errors import InvalidTestCase, Problem, UsageError
+from ..writing import WriteFailed, commit, emit
 from ..parallel import Interrupted, Outcome, process, progress_stream, summary
 from .checks import make_out_dir
-from .terminal import err, problems
+from .terminal import deliver, err, problems
 
 __all__ = ["run_batch", "process_files", "expand_files", "single"]
 
@@ -37,9 +37,8 @@ def run_batch(args: argparse.Namespace, files: list[str], job: Callable[..., Out
             made.append(True)
         try:
             outcome.written = commit(outputs)
-        except OSError as exc:
-            outcome.code, outcome.result = max(outcome.code, ExitCode.INTERNAL), "ERROR"
-            outcome.summary = f"cannot write outputs: {exc.strerror or exc}"
+        except WriteFailed as failed:  # a full disk: the environment's fault; the file's verdict stands
+            outcome.summary = f"{outcome.summary}; not written: {failed}"
         outcome.outputs = [(t, d) for t, d in outcome.outputs if t == "-"]
 
     try:
@@ -51,10 +50,16 @@ def run_batch(args: argparse.Namespace, files: list[str], job: Callable[..., Out
         emit(summary(stop.outcomes))
         err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}; files not run are marked NOT RUN")
         return 128 + stop.signum
+    failed: list[WriteFailed] = []
     if after is not None:
-        after(outcomes)
-    emit(summary(outcomes))
-    return max(o.code for o in outcomes)
+        try:
+            after(outcomes)
+        except WriteFailed as exc:
+            failed.append(exc)
+    code = deliver([], summary(outcomes), max(o.code for o in outcomes))
+    for problem in failed:
+        err(f"btgen_pytrees: {problem}")
+    return code
 
 
 def process_files(args: argparse.Namespace, job: Callable[..., Outcome], job_args: list[tuple[object, ...]],

@@ -14,7 +14,7 @@ from typing import Any, NoReturn
 from ..errors import ExitCode, UsageError
 from ..leaves import Registry, default_registry
 from ..load import load_json
-from ..sweep.overrides import choose, given_values, parse_set, read_params
+from ..sweep.overrides import choose, parse_set, read_params
 from ..systems import SystemSpec
 from .terminal import err
 
@@ -131,6 +131,6 @@ def chosen(args: argparse.Namespace, known: Registry | None = None) -> dict[str,
     twice = sorted({n for i, (n, _) in enumerate(pairs) if n in dict(pairs[:i])})
     if twice:
         raise UsageError(f"--set {twice[0]}: given twice")
-    given.update(given_values(dict(pairs)))
+    given.update(dict(pairs))
     spec = system(args) if hasattr(args, "system") else None
     return choose(load_json(args.file), args.file, given, registry=known or registry(args), system=spec).document

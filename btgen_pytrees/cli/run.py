@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import fnmatch
 import os
-import sys
 from typing import Any, Callable, Sequence
 
 from .. import batch
@@ -16,7 +15,7 @@ from ..leaves import Registry, default_registry
 from ..load import MAX_WORK, check_work, load_json, parse_json, validate
 from ..load.read import read_file
 from ..model import TestCase
-from ..writing import check_distinct, commit, emit, is_direct, on_stdout, report_outputs
+from ..writing import check_distinct, commit, is_direct, report_outputs, stderr_stream
 from ..load.warnings import warning_lines
 from ..parallel import Outcome, merge_junit
 from ..progress import terminal_progress
@@ -33,7 +32,7 @@ from .checks import check_out_dir, check_output, targets
 from .many import run_batch, single
 from .options import Parents, chosen, non_negative, positive, registry, system
 from .sweep import add_executor_options, make_executor, run_options, run_sweep
-from .terminal import err, stdout_text
+from .terminal import deliver, err, stdout_text
 
 __all__ = ["add_parser", "cmd_run"]
 
@@ -160,6 +159,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UsageError("--replay/--btlog/--signals-out/--signals take one case, not a sweep's variations")
 
         return run_sweep(args, data, system(args))
+    if args.executor == "dask":  # accepted and ignored, it would run here while the user believes it ran there
+        raise UsageError(f"--executor dask runs a sweep's variations or a batch's files on a cluster; {args.file} is one case"
+                         f"{' (one variation, chosen with --set/--params)' if args.set or args.params else ''}, "
+                         "which runs here: leave --executor out")  # fmt: skip
     known = registry(args)
     case = validate(data, args.file, registry=known, system=system(args))
     check_work(case, args.max_work)  # before anything runs: a tree whose one tick exceeds the budget
@@ -167,7 +170,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         err(line)
     logged = btlog_tree(args, case, known)
     trace = (lambda line: err(line)) if args.trace else None
-    progress = None if args.trace else terminal_progress(case.name, case.timeout, sys.stderr)  # a terminal's line only
+    progress = None if args.trace else terminal_progress(case.name, case.timeout, stderr_stream())  # a terminal's line only
     try:
         report = run(case, registry=known, trace=trace, require_complete=args.require_complete or None,
                      progress=progress, max_work=args.max_work)  # fmt: skip
@@ -186,9 +189,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     shown = {args.json: "json", args.junit: "btcpp"}  # '-': printed like any view, escaped for a terminal
     outputs = [(t, stdout_text(d, shown.get(t, "")).encode("utf-8") if t == "-" and isinstance(d, str) else d)
                for t, d in outputs]  # fmt: skip
-    commit(outputs)  # all together, after everything was made: a failure leaves none
-    emit(report.table(), sys.stderr if on_stdout(t for t, _ in outputs) else None)  # stdout: the document only
-    return ExitCode.OK if report.passed else ExitCode.FAIL
+    # all together, after everything was made (a failure leaves none); then the table (stdout: the document only)
+    return deliver(outputs, report.table(), ExitCode.OK if report.passed else ExitCode.FAIL)
 
 
 def run_many(args: argparse.Namespace, files: list[str]) -> int:

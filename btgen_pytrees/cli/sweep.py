@@ -15,22 +15,23 @@ import json
 import logging
 import os
 import signal
-import sys
 from typing import Any, Callable, Mapping, Sequence
 
 from ..errors import ExitCode, UsageError, plural
 from ..leaves.plugins import is_path
 from ..load import system_spec
-from ..writing import check_target, commit, emit, on_stdout, report_outputs
+from ..writing import at_home, check_target, commit, emit, report_outputs, stderr_stream
 from ..parallel import Interrupted, progress_stream
 from ..parallel.dask import DaskExecutor, check_address, scheduler_address
 from ..run.plot import plot_format
 from ..sweep import MAX_VARIATIONS, Sweep, load_sweep
 from ..sweep.jobs import RunOptions
 from ..sweep.plot import map_bytes
+from ..sweep.overrides import variation_name
 from ..sweep.runs import file_name, run_variations, sweep_report
 from ..systems.sumo import keep_simulations, release_simulations
 from .options import Parents, chosen, registry
+from .terminal import deliver
 
 __all__ = ["add_parser", "add_executor_options", "cmd_expand", "run_sweep", "make_executor", "checked_scheduler",
            "run_options"]  # fmt: skip
@@ -82,6 +83,7 @@ def cmd_expand(args: argparse.Namespace) -> int:
         where = f"variation {variation.label} of {os.path.basename(sweep.source)}" if variation.label else None
         if where:
             doc["description"] = f"{doc['description']} ({where})" if doc.get("description") else where.capitalize()
+            doc["name"] = variation_name(sweep.name, variation.label)  # its reports and JUnit say which variation
         name = file_name(sweep.name, variation.label, variation.index)
         if name.casefold() in taken:  # a case-insensitive disk would merge them
             raise UsageError(f"--out-dir {out}: variations [{taken[name.casefold()]}] and [{variation.label}] would both be written to {name}")
@@ -177,7 +179,7 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
                                   progress_stream())  # fmt: skip
     except Interrupted as stop:
         emit(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name} after {stop.finished} of "  # type: ignore[attr-defined]
-             f"{plural(len(variations), 'variation')}; nothing written\n", sys.stderr)  # fmt: skip
+             f"{plural(len(variations), 'variation')}; nothing written\n", stderr_stream())  # fmt: skip
         return 128 + stop.signum
     finally:
         if executor is not None:
@@ -187,11 +189,13 @@ def run_sweep(args: argparse.Namespace, data: Mapping[str, Any], system: Any = N
     for path, kind in extra:
         outputs.append((path, report.to_json() if kind == "json" else report.to_junit()))
     if out_dir is not None:
+        at_home()
         os.makedirs(out_dir, exist_ok=True)
-    commit(outputs)
-    emit(report.summary(), sys.stderr if on_stdout(t for t, _ in outputs) else None)  # escaped; stdout: the document only
-    if executor is not None and executor.lost:
-        emit(f"btgen_pytrees: {executor.lost}; the rest are reported as errors\n", sys.stderr)
     if any(o.code == ExitCode.INTERNAL for o in outcomes):
-        return ExitCode.INTERNAL
-    return ExitCode.OK if report.passed else ExitCode.FAIL
+        code: int = ExitCode.INTERNAL
+    else:
+        code = ExitCode.OK if report.passed else ExitCode.FAIL
+    deliver(outputs, report.summary(), code)  # escaped; stdout: the document only
+    if executor is not None and executor.lost:
+        emit(f"btgen_pytrees: {executor.lost}; the rest are reported as errors\n", stderr_stream())
+    return code

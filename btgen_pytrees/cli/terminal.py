@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import sys
-from typing import Iterable, TextIO
+from typing import Iterable, Sequence, TextIO
 
-from ..errors import MAX_PROBLEMS, UNSAFE, ExitCode, InvalidTestCase, printable
-from ..writing import emit, own_stdout
+from ..errors import MAX_PROBLEMS, UNSAFE, ExitCode, InvalidTestCase, plural, printable
+from ..writing import Data, WriteFailed, commit, emit, on_stdout, stderr_stream, write_stdout_bytes
 from ..parallel import Outcome
 
-__all__ = ["can_encode", "err", "report_invalid", "problems", "stdout_text", "write_stdout"]
+__all__ = ["can_encode", "deliver", "err", "report_invalid", "problems", "stdout_text", "write_stdout"]
 
 
 def can_encode(stream: TextIO, text: str = "·…") -> bool:
@@ -22,7 +21,34 @@ def can_encode(stream: TextIO, text: str = "·…") -> bool:
 
 def err(text: str) -> None:
     """One line on stderr, escaped (:func:`~btgen_pytrees.writing.emit`)."""
-    emit(text + "\n", sys.stderr)
+    emit(text + "\n", stderr_stream())
+
+
+def deliver(outputs: Sequence[tuple[str, Data]], text: str, code: int) -> int:
+    """Write a command's *outputs* together (:func:`~btgen_pytrees.writing.commit`), then print *text* (its
+    verdict table or summary: on stdout, on stderr when an output is stdout); return *code*, the verdict's.
+
+    An output that cannot be written when it is made - a full disk, ``/dev/full``, a ``/proc`` or ``/sys``
+    file that refuses the data, stdout itself - is the environment's fault: the verdict is printed all the
+    same, one line names the output that failed, and the exit code stays the verdict's, never 3
+    (docs/limits.md, "Outputs"). A reader of stdout that went away (``| head``) only ends the printing.
+    """
+    failed: list[WriteFailed] = []
+    try:
+        commit(outputs)
+    except WriteFailed as exc:
+        failed.append(exc)
+    except BrokenPipeError:
+        pass
+    try:
+        emit(text, stderr_stream() if on_stdout(t for t, _ in outputs) else None)
+    except WriteFailed as exc:
+        failed.append(exc)
+    except BrokenPipeError:
+        pass
+    for problem in failed:
+        err(f"btgen_pytrees: {problem}")
+    return code
 
 
 def report_invalid(error: InvalidTestCase) -> int:
@@ -31,7 +57,7 @@ def report_invalid(error: InvalidTestCase) -> int:
     for problem in found[:MAX_PROBLEMS]:
         err(problem.render(error.source))
     if len(found) > MAX_PROBLEMS:
-        err(f"{error.source}: … and {len(found) - MAX_PROBLEMS} more problems")
+        err(f"{error.source}: … and {plural(len(found) - MAX_PROBLEMS, 'more problem')}")
     return ExitCode.INVALID
 
 
@@ -65,9 +91,6 @@ def write_stdout(data: str | bytes | Iterable[str | bytes], fmt: str) -> None:
     """
     for chunk in [data] if isinstance(data, (str, bytes)) else data:
         if isinstance(chunk, bytes):
-            with own_stdout():
-                sys.stdout.flush()
-                sys.stdout.buffer.write(chunk)
-                sys.stdout.buffer.flush()
+            write_stdout_bytes(chunk)
         else:
             emit(stdout_text(chunk, fmt))

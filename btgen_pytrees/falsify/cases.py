@@ -23,6 +23,7 @@ from ..run.replay import replay_html
 from ..load.template import Sweep, Variation
 from ..parallel import Workers
 from ..sweep.jobs import RunOptions, VariationOutcome
+from ..sweep.overrides import variation_name
 from ..sweep.runs import file_name, run_variations
 from ..validator import shared_validator
 from .jobs import job_probe
@@ -127,6 +128,7 @@ def counterexample_files(sweep: Sweep, data: Mapping[str, Any], out_dir: str,
         doc = concrete_case(sweep, ce["parameters"], out_dir)
         what = f"counterexample {k + 1} ({ce['kind']}, cluster {ce['cluster']}) of {os.path.basename(sweep.source)} found by falsify: {ce['label']}"
         doc["description"] = f"{doc['description']} ({what})" if doc.get("description") else what[0].upper() + what[1:]
+        doc["name"] = variation_name(sweep.name, ce["label"])  # named as its file: its reports say which point
         path = os.path.join(out_dir, file_name(sweep.name, ce["label"], ce["run"]))
         outputs.append((path, json.dumps(doc, indent=2, ensure_ascii=False) + "\n"))
         try:

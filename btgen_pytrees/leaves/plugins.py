@@ -34,6 +34,7 @@ from typing import Callable, Iterable, Iterator
 
 from ..contracts.registry import Registry
 from ..errors import UserError, is_interrupt
+from ..writing import at_home
 
 __all__ = ["ENTRY_POINT_GROUP", "PluginError", "installed_plugins", "load_module_plugin", "loads_user_code"]
 
@@ -131,6 +132,8 @@ def load_module_plugin(module: str) -> tuple[str, Register]:
         if is_interrupt(exc):
             raise
         raise PluginError(f"plugin {module!r}: cannot import: {type(exc).__name__}: {exc}") from exc
+    finally:
+        at_home()  # the CLI's process: relative paths (inputs, outputs, the next plugin) mean what they meant
     func = getattr(mod, "register", None)
     if not callable(func):
         raise PluginError(f"plugin {module!r} has no register(registry) function")
@@ -146,4 +149,6 @@ def apply(registry: Registry, plugins: Iterable[tuple[str, Register]]) -> Regist
             if is_interrupt(exc):
                 raise
             raise PluginError(f"{label}: register() failed: {type(exc).__name__}: {exc}") from exc
+        finally:
+            at_home()
     return registry

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from ..errors import MAX_LINE, MAX_PROBLEMS, Problem, printable
+from ..errors import MAX_LINE, MAX_PROBLEMS, Problem, plural, printable
 from ..leaves import Registry
 from ..model import Entry, TestCase
 from ..order import positions
@@ -65,7 +65,7 @@ def warning_lines(case: TestCase, limit: int = MAX_PROBLEMS) -> list[str]:
     first *limit*, then ``FILE: … and N more warnings`` (every command prints the same lines)."""
     lines = [Problem(w.path, f"warning: {w.message}", w.cause).render(case.source) for w in case.warnings[:limit]]
     if len(case.warnings) > limit:
-        lines.append(printable(f"{case.source}: … and {len(case.warnings) - limit} more warnings", limit=MAX_LINE))
+        lines.append(printable(f"{case.source}: … and {plural(len(case.warnings) - limit, 'more warning')}", limit=MAX_LINE))
     return lines
 
 

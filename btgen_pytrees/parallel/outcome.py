@@ -14,6 +14,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
+from ..writing import at_home
 from ..errors import MAX_LINE, MAX_PROBLEMS, ExitCode, InvalidTestCase, UserError, is_interrupt, plural, printable, shorten, xml_safe
 
 __all__ = ["Outcome", "Interrupted", "WorkerDied", "guard", "died", "capped", "summary", "merge_junit", "WORDS"]
@@ -78,6 +79,7 @@ def guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
     plugin, a factory or a leaf - is this file's error (code 1); it never ends
     the batch or sets the CLI's exit code.
     """
+    at_home()  # the CLI's directory: a leaf of the previous file may have changed it, and paths are relative to it
     try:
         return job(path, *args)
     except InvalidTestCase as error:
@@ -100,7 +102,7 @@ def capped(lines: list[str], limit: int | None = None) -> list[str]:
     limit = MAX_PROBLEMS if limit is None else limit
     if len(lines) <= limit:
         return lines
-    return lines[:limit] + [f"… and {len(lines) - limit} more problems"]
+    return lines[:limit] + [f"… and {plural(len(lines) - limit, 'more problem')}"]
 
 
 class Interrupted(Exception):

@@ -12,6 +12,7 @@ from typing import Iterator
 
 import py_trees
 
+from ..errors import plural
 from .nodes import annotation, symbol, walk
 from .stream import chunked
 
@@ -48,10 +49,10 @@ def _lines(root: py_trees.behaviour.Behaviour, unicode: bool, max_depth: int | N
             hidden += 1
             continue
         if hidden:
-            yield f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes\n"
+            yield f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {plural(hidden, 'more node')}\n"
             hidden = 0
         note = annotation(node)
         line = f"{'    ' * depth}{symbol(node)} {node.name}" + (f"{sep}{note}" if note else "") + "\n"
         yield line if unicode else line.encode("ascii", "replace").decode("ascii")
     if hidden:
-        yield f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes\n"
+        yield f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {plural(hidden, 'more node')}\n"

@@ -38,7 +38,7 @@ from ..leaves.wiring import RunStart
 from ..contracts.system import SystemFailure
 from .explain import explain, status_tree
 from .index import TreeIndex
-from .report import EntryResult, OracleResult, Report
+from .report import EntryResult, OracleResult, Report, counts
 from .trace import TraceRecorder
 
 __all__ = ["Collector", "Trace", "trace_line"]
@@ -424,5 +424,5 @@ def _margin(value: object) -> float | None:
 
 def _why_failed(execute: list[EntryResult], oracles: list[OracleResult]) -> str:
     failed = [f"{e.id} failed" + (f" ({e.message})" if e.message else "") for e in execute if e.status == "failure"]
-    failed += [f"{o.id} failed" for o in oracles if o.verdict == "fail"]
+    failed += [f"{o.id} failed" for o in oracles if o.verdict == "fail" and counts(o, oracles)]  # as why and JUnit say
     return "; ".join(failed)

@@ -39,6 +39,7 @@ import py_trees
 from py_trees.common import Status
 from py_trees.decorators import Decorator
 
+from ..errors import plural
 from ..expressions import why_false
 from ..render.nodes import symbol, walk
 
@@ -82,7 +83,7 @@ def status_tree(root: py_trees.behaviour.Behaviour, last: Mapping[int, Status], 
         if node.feedback_message and status in (Status.RUNNING, Status.FAILURE):  # a success's may be stale
             line += f" -- {node.feedback_message}"
         if fold and sizes[id(node)] > 1 and settled[id(node)]:
-            line += f" … {sizes[id(node)] - 1} more nodes, {'all succeeded' if status == Status.SUCCESS else 'never ticked'}"
+            line += f" … {plural(sizes[id(node)] - 1, 'more node')}, {'all succeeded' if status == Status.SUCCESS else 'never ticked'}"
             skip_below = depth
         lines.append(line)
         if len(lines) >= limit:
@@ -97,10 +98,10 @@ LINES_PER_KIND = 20
 """Most lines of one kind (waiting triggers, running entries, ...) in an explanation; the rest are counted."""
 
 
-def _capped(lines: list[str], what: str) -> list[str]:
+def _capped(lines: list[str], one: str, many: str) -> list[str]:
     if len(lines) <= LINES_PER_KIND:
         return lines
-    return lines[:LINES_PER_KIND] + [f"  … and {len(lines) - LINES_PER_KIND} more {what}"]
+    return lines[:LINES_PER_KIND] + [f"  … and {plural(len(lines) - LINES_PER_KIND, 'more ' + one, 'more ' + many)}"]
 
 
 def explain(report: Any, root: py_trees.behaviour.Behaviour, env: Any, criteria: Mapping[str, Any],
@@ -128,7 +129,7 @@ def explain(report: Any, root: py_trees.behaviour.Behaviour, env: Any, criteria:
                 lines.append(f"criterion {o.label} ({o.type}) failed: {o.message}")
         if not lines and report.incomplete:
             lines.append(report.message)
-            lines += _capped([f"  entry {e.label}: {e.status}" for e in report.execute if e.status != "success"], "entries")
+            lines += _capped([f"  entry {e.label}: {e.status}" for e in report.execute if e.status != "success"], "entry", "entries")
         return lines
     # timeout
     now = report.duration
@@ -156,7 +157,7 @@ def explain(report: Any, root: py_trees.behaviour.Behaviour, env: Any, criteria:
         waiting.append(f"  trigger before {gated} waits for {join}{preds}; not done: {shown}")
     if waiting:
         lines.append("triggers still waiting:")
-        lines += _capped(waiting, "triggers")
+        lines += _capped(waiting, "trigger", "triggers")
     running = []
     for e in report.execute:
         if e.status == "running":
@@ -169,15 +170,15 @@ def explain(report: Any, root: py_trees.behaviour.Behaviour, env: Any, criteria:
             running.append(f"  {e.label} running since {e.start:g} s ({now - e.start:g} s)" + (f": {feedback}" if feedback else ""))
     if running:
         lines.append("entries still running:")
-        lines += _capped(running, "entries")
+        lines += _capped(running, "entry", "entries")
     gates = [f"  {e.label} {e.message}" for e in report.execute if e.status == "not-started" and e.message.startswith("waiting")]
     if gates:
         lines.append("entries waiting for their start condition:")
-        lines += _capped(gates, "entries")
+        lines += _capped(gates, "entry", "entries")
     undecided = [f"  {o.label} ({o.type}: {o.expect}) {_awaits(criteria.get(o.id))}" for o in report.oracles if o.verdict == "inconclusive"]
     if undecided:
         lines.append("criteria still undecided:")
-        lines += _capped(undecided, "criteria")
+        lines += _capped(undecided, "criterion", "criteria")
     return lines
 
 

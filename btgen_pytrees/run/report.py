@@ -18,7 +18,7 @@ from ..model import label
 if TYPE_CHECKING:  # pragma: no cover
     from .trace import RunTrace
 
-__all__ = ["EntryResult", "OracleResult", "Report", "oracle_margin", "margin_text"]
+__all__ = ["EntryResult", "OracleResult", "Report", "counts", "oracle_margin", "margin_text"]
 
 _UNFINISHED = {
     "running": ("entry still running", "entries still running"),
@@ -89,6 +89,17 @@ class OracleResult:
     @property
     def label(self) -> str:
         return label(self.id, self.name)
+
+
+def counts(oracle: OracleResult, oracles: Sequence[OracleResult]) -> bool:
+    """Whether *oracle*'s verdict counts for a run whose criteria are *oracles*.
+
+    Every member of an ``&&`` group counts. A member of an ``||`` group counts
+    unless another member of its group passed: the group passed without it.
+    """
+    if oracle.relation != "||":
+        return True
+    return not any(o.verdict == "pass" for o in oracles if o.group == oracle.group and o is not oracle)
 
 
 def oracle_margin(oracles: Sequence[OracleResult]) -> float | None:
@@ -177,18 +188,12 @@ class Report:
             return self
         why = f"timeline incomplete: {self.incomplete} (the case requires a complete timeline)"
         unfinished = [f"  entry {e.label}: {e.status}" for e in self.execute if e.status != "success"]
-        shown = unfinished[:20] + ([f"  … and {len(unfinished) - 20} more entries"] if len(unfinished) > 20 else [])
+        shown = unfinished[:20] + ([f"  … and {plural(len(unfinished) - 20, 'more entry', 'more entries')}"] if len(unfinished) > 20 else [])
         return replace(self, verdict="fail", message=why, explanation=[why, *shown])
 
     def decisive(self, oracle: OracleResult) -> bool:
-        """Whether *oracle*'s verdict counts for the run.
-
-        Every member of an ``&&`` group counts. A member of an ``||`` group counts
-        unless another member of its group passed: the group passed without it.
-        """
-        if oracle.relation != "||":
-            return True
-        return not any(o.verdict == "pass" for o in self.oracles if o.group == oracle.group and o is not oracle)
+        """Whether *oracle*'s verdict counts for the run (:func:`counts`)."""
+        return counts(oracle, self.oracles)
 
     def to_dict(self) -> dict[str, Any]:
         data = asdict(replace(self, trace=None))

@@ -86,7 +86,7 @@ def row_of(report: Any) -> dict[str, Any]:
     for o in report.oracles:
         oracles.append({"id": o.id, "verdict": o.verdict, "margin": margin_of(o), "at": o.at, "message": o.message})
     failed = next((e for e in report.execute if e.status == "failure"), None)
-    details = [f"{o['id']}: {o['message']}" for o in oracles if o["verdict"] == "fail" and o["message"]]
+    details = [f"{o.id}: {o.message}" for o in report.oracles if o.verdict == "fail" and o.message and report.decisive(o)]
     if failed is not None:
         details.insert(0, f"{failed.id} failed" + (f": {failed.message}" if failed.message else ""))
     why = "; ".join(details) if report.verdict == "fail" and details else report.message

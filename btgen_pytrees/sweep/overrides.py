@@ -39,9 +39,10 @@ from ..leaves import Registry
 from ..load.read import load_json
 from ..text import closest
 from ..load.sweep import load_sweep
+from ..load.values import value_problems
 from ..load.variations import Value, format_value, label
 
-__all__ = ["Given", "Chosen", "ParameterError", "parse_set", "given_values", "read_params", "choose"]
+__all__ = ["Given", "Chosen", "ParameterError", "parse_set", "given_values", "read_params", "choose", "variation_name"]
 
 MAX_NAME = 200
 """A case name's longest (the schema's ``maxLength``); a longer ``name[label]`` has its label shortened."""
@@ -81,21 +82,50 @@ class Chosen:
     document: dict[str, Any]
 
 
+def variation_name(name: str, shown: str) -> str:
+    """``name[label]``, the name of one variation of the case *name*: in reports, JUnit and the case files
+    ``expand`` and ``falsify --out-dir`` write. A long label is shortened in its middle to fit :data:`MAX_NAME`.
+
+    >>> variation_name("fig1_sweep", "top_speed=30,limit=25")
+    'fig1_sweep[top_speed=30,limit=25]'
+    """
+    if not shown:
+        return name
+    if len(name) + len(shown) + 2 > MAX_NAME:
+        shown = shorten(shown, max(MAX_NAME - len(name) - 2, 10))
+    return f"{name}[{shown}]"[:MAX_NAME]
+
+
 def _no_constant(name: str) -> Any:
     raise ValueError(name)
 
 
-def parse_set(text: str) -> tuple[str, Any]:
-    """``NAME=VALUE`` (VALUE as JSON: a number, ``true`` or ``false``) as ``(name, value)``."""
+def _number(text: str) -> int | float:
+    """A JSON integer; one too long for Python's ``int`` (over 4,300 digits) as a float (``inf``), which
+    the magnitude check then refuses with the loader's message."""
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
+MAX_SHOWN = 40
+"""Most characters of a ``--set`` value echoed in a message (a 5,000-digit value is cut in its middle)."""
+
+
+def parse_set(text: str) -> tuple[str, Given]:
+    """``NAME=VALUE`` (VALUE as JSON: a number, ``true`` or ``false``) as ``(name, given)``; messages echo
+    the option as it was typed (``--set x=1e400``, not the float it reads as), shortened."""
     name, equals, raw = text.partition("=")
     name = name.strip()
     if not equals or not name:
-        raise ParameterError([f"--set {text}: expected NAME=VALUE, e.g. --set gap=4"])
+        raise ParameterError([f"--set {shorten(text, MAX_SHOWN)}: expected NAME=VALUE, e.g. --set gap=4"])
+    origin = f"--set {shorten(name, MAX_SHOWN)}={shorten(raw.strip(), MAX_SHOWN)}"
     try:
-        value = json.loads(raw, parse_constant=_no_constant)
-    except ValueError:
-        raise ParameterError([f"--set {text}: {raw.strip()!r} is not a number, true or false"]) from None
-    return name, value
+        value = json.loads(raw, parse_constant=_no_constant, parse_int=_number)
+    except (ValueError, RecursionError):
+        raise ParameterError([f"{origin}: {shorten(raw.strip(), MAX_SHOWN)!r} is not a number, true or false"]) from None
+    return name, Given(value, origin)
 
 
 def given_values(values: Mapping[str, Any], origin: str = "--set") -> dict[str, Given]:
@@ -130,6 +160,10 @@ def check_given(given: Mapping[str, Given], defaults: Mapping[str, Value]) -> li
                 " (the case declares no parameters)")  # fmt: skip
             lines.append(f"{item.origin}: unknown parameter '{name}'{tip}")
             continue
+        bad = next(value_problems(item.value), None)  # 1e400, 1e301: the loader's bound, said at the option
+        if bad is not None and not isinstance(defaults[name], bool):
+            lines.append(f"{item.origin}: parameter '{name}': {bad.message}")
+            continue
         problem = _type_problem(item.value, defaults[name])
         if problem:
             lines.append(f"{item.origin}: parameter '{name}' {problem}")
@@ -155,8 +189,5 @@ def choose(data: Any, source: str, given: Mapping[str, Given], *, registry: Regi
     sweep = load_sweep(single, registry=registry, source_name=source, system=system, check_all=False)
     document = sweep.document(values)
     name = document.get("name") if isinstance(document.get("name"), str) else os.path.basename(source)
-    shown = label(tuple(values.items()))
-    if len(name) + len(shown) + 2 > MAX_NAME:
-        shown = shorten(shown, max(MAX_NAME - len(name) - 2, 10))
-    document["name"] = f"{name}[{shown}]"[:MAX_NAME]
+    document["name"] = variation_name(name, label(tuple(values.items())))
     return Chosen(values, {name: item.value for name, item in given.items()}, document)

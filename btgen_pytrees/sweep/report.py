@@ -20,7 +20,7 @@ from typing import Any, Mapping, Sequence
 
 from ..errors import plural
 from ..run.report import margin_text
-from ..load.variations import Value, format_value
+from ..load.variations import Value
 
 __all__ = ["SweepReport", "VERDICTS", "worst_first"]
 
@@ -121,7 +121,7 @@ class SweepReport:
                 lines.append("closest to failing:")
         width = max([len(r["label"]) for r in chosen] + [0])
         for r in chosen:
-            margin = f" (margin {format_value(r['margin'])})" if r.get("margin") is not None else ""
+            margin = f" (margin {r['margin']:.6g})" if r.get("margin") is not None else ""  # rounded as in the run's messages
             lines.append(f"  {r['label'].ljust(width)}  {r['verdict'].upper():7s} {r['message']}{margin}".rstrip())
         return "\n".join(lines) + "\n"
 

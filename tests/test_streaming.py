@@ -46,13 +46,13 @@ def reference_text(root: py_trees.behaviour.Behaviour, *, unicode: bool = True, 
             hidden += 1
             continue
         if hidden:
-            lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes")
+            lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more node{'s' if hidden > 1 else ''}")
             hidden = 0
         note = annotation(node)
         line = f"{'    ' * depth}{symbol(node)} {node.name}" + (f"{sep}{note}" if note else "")
         lines.append(line if unicode else line.encode("ascii", "replace").decode("ascii"))
     if hidden:
-        lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more nodes")
+        lines.append(f"{'    ' * ((max_depth or 0) + 1)}{ellipsis} {hidden} more node{'s' if hidden > 1 else ''}")
     return "\n".join(lines) + "\n"
 
 

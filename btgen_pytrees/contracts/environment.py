@@ -8,6 +8,7 @@ completion flags, and keys of the host application are never touched::
     <ns>/signals/<name>   signal values (written by leaves, published by a system or host)
     <ns>/done/<id>        set when an entry that a trigger waits for has succeeded
     <ns>/failed/<id>      set when a member of an ``||`` oracle group has failed
+    <ns>/failed_count/<id> how many members of the ``||`` group whose first member is <id> have failed
     <ns>/execute_done     set when the execute subtree has succeeded
     <ns>/t0               clock time of the run's first tick
 

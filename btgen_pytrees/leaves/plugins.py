@@ -120,6 +120,7 @@ def _import_file(path: str) -> ModuleType:
 
 def load_module_plugin(module: str) -> tuple[str, Register]:
     """Import *module* (a module name, or the path of a ``.py`` file) and return its ``register`` function."""
+    at_home()  # a relative path means what it meant when the command began (user code may have moved since)
     try:
         if is_path(module):
             mod = _import_file(module)

@@ -14,7 +14,6 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
-from ..writing import at_home
 from ..errors import MAX_LINE, MAX_PROBLEMS, ExitCode, InvalidTestCase, UserError, is_interrupt, plural, printable, shorten, xml_safe
 
 __all__ = ["Outcome", "Interrupted", "WorkerDied", "guard", "died", "capped", "summary", "merge_junit", "WORDS"]
@@ -79,7 +78,6 @@ def guard(job: Callable[..., Outcome], path: str, *args: object) -> Outcome:
     plugin, a factory or a leaf - is this file's error (code 1); it never ends
     the batch or sets the CLI's exit code.
     """
-    at_home()  # the CLI's directory: a leaf of the previous file may have changed it, and paths are relative to it
     try:
         return job(path, *args)
     except InvalidTestCase as error:

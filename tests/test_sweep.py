@@ -163,7 +163,7 @@ def test_wrong_types_after_substitution_are_reported_per_distinct_problem() -> N
     data = swept({"d": 1, "on": True}, {"d": [1, -1, -2, 3, -1.5]},
                  entry("A", duration="$d"), entry("B", duration="$on"))  # fmt: skip
     found = problems(data)
-    assert ("/execute/1/params/duration", "True is not of type 'number': expected seconds, >= 0") in found  # every variation: said once
+    assert ("/execute/1/params/duration", "true is not of type 'number': expected seconds, >= 0") in found  # every variation: said once
     negative = [m for p, m in found if p == "/execute/0/params/duration"]
     assert negative == [
         "must not be negative (got -1) (in variation: [d=-1])",
@@ -403,7 +403,7 @@ def test_every_expanded_sumo_case_runs_where_it_was_written_and_gives_its_rows_v
         assert json.loads(written.read_text())["system"]["config"] == "../../cases/cut_in.sumocfg"
         result = cli("run", str(written), cwd=elsewhere)
         assert result.returncode == (0 if verdict == "pass" else 1), result.stderr
-        assert f"cut_in_sweep: {verdict.upper()}" in result.stdout
+        assert f"cut_in_sweep[{label}]: {verdict.upper()}" in result.stdout  # named after its variation
     assert cli("expand", "sweep.json", "--out-dir", ".", cwd=cases).returncode == 0  # beside the sweep: as written
     assert json.loads((cases / "cut_in_sweep[gap=1,ego_speed=25].json").read_text())["system"]["config"] == "cut_in.sumocfg"
 

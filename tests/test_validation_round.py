@@ -62,7 +62,7 @@ def test_fixing_that_round_leaves_nothing() -> None:
 def test_a_criterion_params_problem_comes_with_shape_problems() -> None:
     data = case(entry("A"), criteria=[{"id": "F", "type": "final", "expect": "true", "params": {"x": 1}}], timeout=-1)
     assert problems(data) == [
-        ("/oracle/criteria/0/params", "{'x': 1} is expected to be empty"),
+        ("/oracle/criteria/0/params", '{"x": 1} is expected to be empty'),
         ("/timeout", "-1 is less than or equal to the minimum of 0"),
     ]
 

@@ -19,7 +19,7 @@ are; each variation then only rebuilds the containers on the way to its sites
 
 Substitution does not check types: the substituted document goes through the
 loader like any test case, so ``"duration": "$flag"`` with a boolean ``flag``
-is the loader's "True is not of type 'number'" at ``/execute/0/params/duration``.
+is the loader's "true is not of type 'number'" at ``/execute/0/params/duration``.
 
 >>> doc = {"tick": "$dt", "execute": [{"id": "A", "kind": "constraint", "action": "until",
 ...        "params": {"expect": "gap > $min_gap && $$ok", "timeout": "$t"}}]}

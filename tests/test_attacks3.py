@@ -144,6 +144,13 @@ def test_a_plugin_closing_stdout_and_stderr_does_not_turn_a_failing_run_into_exi
     assert document.returncode == 1 and json.loads(document.stdout)["verdict"] == "fail"
 
 
+def test_a_plugin_replacing_the_streams_at_import_does_not_stop_a_sweep(work: pathlib.Path) -> None:
+    write(work / "nulls.py", "import sys\nsys.stdout = sys.stderr = None\n\ndef register(registry):\n    pass\n")
+    result = cli_process(work, "run", "fig1_sweep.json", "--plugin", "nulls.py", "--jobs", "1")
+    assert result.returncode == 1 and "28 variations of top_speed x limit" in result.stdout, result.stderr
+    assert "internal error" not in result.stderr
+
+
 def test_a_plugin_killing_the_cli_leaves_no_orphan_printing_a_traceback(work: pathlib.Path) -> None:
     # run() returns once every process holding the pipes has ended: the orphan too
     result = cli_process(work, "run", "parricide.json", "--plugin", "attack.py", "--json", "/dev/stdout")

@@ -329,5 +329,10 @@ def process(job: Callable[..., Outcome], jobs_args: Sequence[tuple[object, ...]]
 
 
 def progress_stream() -> TextIO | None:
-    """stderr if it is a terminal (a progress line helps there), else None (logs stay clean)."""
-    return sys.stderr if sys.stderr.isatty() else None
+    """stderr if it is a terminal (a progress line helps there), else None (logs stay clean); None too when
+    user code closed or replaced ``sys.stderr`` (``None``): the run goes on without its progress line."""
+    stream = sys.stderr
+    try:
+        return stream if stream.isatty() else None
+    except (AttributeError, ValueError, OSError):
+        return None

@@ -2,8 +2,7 @@
 
 ASAM OpenSCENARIO 1.2, clause 7.3 "Actions" (1.0: 8.3). Each supported private action becomes one
 of the SUMO leaves (``sumo.speed``, ``sumo.lane_change``, ``sumo.lane_offset``, ``sumo.teleport``,
-``sumo.follow``, ``sumo.controller``: docs/opendrive.md has their motion; ``sumo.trajectory`` has no
-leaf yet and :mod:`.motion` refuses it), the
+``sumo.follow``, ``sumo.controller``, ``sumo.trajectory``: docs/opendrive.md has their motion), the
 attributes evaluated (parameters and ``${...}`` expressions) and renamed to the leaves' params; a
 variable's set action becomes the built-in ``set`` of the variable's signal. Positions are passed
 as the position objects of the road system (one key, the OSC element name; attributes evaluated).
@@ -200,8 +199,8 @@ class ActionWriter:
         params["following"] = s.choice(mode, "followingMode", ("position", "follow"))
         if "followingMode" in mode.attrs and params["following"] != "position":
             raise XmlProblem(mode, "followingMode 'follow' is not supported ('position' is)")
-        if "initialDistanceOffset" in node.attrs:
-            params["initial_offset"] = s.number(node, "initialDistanceOffset")
+        if "initialDistanceOffset" in node.attrs and s.number(node, "initialDistanceOffset") != 0:
+            raise XmlProblem(node, "an initialDistanceOffset other than 0 is not supported")
         return params
 
     def variable_action(self, node: Node) -> tuple[str, dict[str, Any]]:

@@ -13,7 +13,6 @@ what the conversion must know beyond one action:
   the referenced entity is the distance (``timeGap`` times the referenced entity's speed), plus the
   bounding boxes' extents with ``freespace``, on the side its Init position put it.
 
-``FollowTrajectoryAction`` has no leaf yet: refused at its element, never dropped.
 """
 
 from __future__ import annotations
@@ -71,9 +70,6 @@ class Motion:
         """The entries an action becomes: ``(action, params, seconds to wait after it)`` - one, the leaf's."""
         if kind == "sumo.speed":
             return [(kind, self.speed(node, actor, params), 0.0)]
-        if kind == "sumo.trajectory":
-            raise XmlProblem(node, "FollowTrajectoryAction is not supported yet: the road system has no leaf for it "
-                                   '(docs/openscenario.md "Actions")')  # fmt: skip
         if kind in ("sumo.lane_change", "sumo.lane_offset") and params.get("rate", 1) <= 0 and params.get("shape") != "step":
             raise XmlProblem(node, f"rate {params['rate']:g} must be greater than 0")
         if kind == "sumo.lane_offset" and params.get("max_lateral_acc", 1) <= 0:

@@ -29,6 +29,7 @@ from helpers import case, crit, entry, run_case
 import btgen_pytrees
 from btgen_pytrees import cli
 from btgen_pytrees.render import iter_text_tree
+from btgen_pytrees.run import plot
 from btgen_pytrees.supervise import STOP_GRACE
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -378,3 +379,10 @@ def test_the_documented_blackboard_keys_are_the_keys_a_run_writes() -> None:
     embedding = (ROOT / "docs" / "embedding.md").read_text()
     for kind in kinds:
         assert f"<ns>/{kind}" in semantics and f"`{kind}" in embedding, kind
+
+
+def test_limits_md_states_the_plots_limits_as_the_code_has_them() -> None:
+    limits = (ROOT / "docs" / "limits.md").read_text()
+    assert "MAX_SIGNALS" not in limits  # no such limit: signals are drawn in panels
+    assert f"at most {plot.MAX_PANELS} panels of signals (`plot.MAX_PANELS`) of {plot.MAX_PER_PANEL}" in limits
+    assert f"{plot.MAX_ROWS} timeline rows (`plot.MAX_ROWS`" in limits

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from btgen_pytrees import load
 from btgen_pytrees.errors import InvalidTestCase
 from btgen_pytrees.formulas import FormulaError, parse
-from btgen_pytrees.monitor import Monitor, decided, holds
+from btgen_pytrees.monitor import Monitor, bound_at, bound_streamed, decided, holds
 from btgen_pytrees.run import run
 
 rtamt = pytest.importorskip("rtamt")
@@ -269,6 +269,11 @@ def test_margin_equals_rtamt_verdict_and_decided(interpreter, case):
             brute = k
             break
     assert decided(monitor, anchor, 0, last, not bounded) == brute, text(f)
+    k = last // 2  # the two ways of working out an end of the interval agree (decided picks the cheaper)
+    if k < last:
+        lo, hi = interval(f, trace, anchor, k, None)
+        assert (bound_at(monitor, anchor, k, True), bound_at(monitor, anchor, k, False)) == (lo, hi), text(f)
+        assert (bound_streamed(monitor, anchor, k, True), bound_streamed(monitor, anchor, k, False)) == (lo, hi), text(f)
 
 
 def test_rtamt_text_parser_agrees_on_a_requirement():
@@ -482,3 +487,15 @@ def test_response_requirement_on_sumo():
     response = by_id["T1"]
     assert response.verdict == "pass" and response.margin > 0
     assert 2.0 <= response.decided <= 3.5 and response.at == pytest.approx(3.5)  # the lead braked at 2 s
+
+
+def test_the_benchmark_cases_load():
+    """benchmarks/temporal.py's cases are valid (its timings are measured there, not here)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT))
+    from benchmarks import temporal as bench
+
+    cases = {kind: load(bench.case(kind)) for kind in ("record", "temporal", "nested")}
+    assert [len(c.criteria) for c in cases.values()] == [bench.N] * 3
+    assert cases["temporal"].criteria[1].expect.span == pytest.approx(999.9)

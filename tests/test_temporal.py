@@ -499,3 +499,21 @@ def test_the_benchmark_cases_load():
     cases = {kind: load(bench.case(kind)) for kind in ("record", "temporal", "nested")}
     assert [len(c.criteria) for c in cases.values()] == [bench.N] * 3
     assert cases["temporal"].criteria[1].expect.span == pytest.approx(999.9)
+
+
+def test_falsify_finds_a_late_response_within_50_runs(tmp_path):
+    """falsify's objective is the temporal criterion's margin: it finds a reaction too late for the
+    response requirement on the built-in simulator within 50 runs, and every run's margin is the report's."""
+    from btgen_pytrees.cli import main
+    from btgen_pytrees.falsify.sampler import available
+
+    if not available() and not os.environ.get("CI"):
+        pytest.skip("the 'search' extra is not installed")
+    out = tmp_path / "f.json"
+    assert main(["falsify", str(EXAMPLES / "response_falsify.json"), "--budget", "50", "--jobs", "1", "--json", str(out)]) == 1
+    data = json.loads(out.read_text())
+    assert data["verdict"] == "falsified" and data["first_failure"] <= 50
+    failing = data["runs"][data["first_failure"] - 1]
+    assert failing["parameters"]["delay"] > 1.3 and failing["margins"]["Response"] == failing["margin"] < 0
+    assert all(r["margin"] == r["margins"]["Response"] for r in data["runs"])
+    assert all((r["verdict"] == "pass") == (r["margin"] > 0) for r in data["runs"])

@@ -514,3 +514,29 @@ def test_the_end_of_the_road_is_a_signal_until_sumo_takes_the_vehicle_off(tmp_pa
     # one step of it, and SUMO takes it off in the step after
     assert ends[last] is True and not any(ends[:last]) and last == 26
     assert "Ego.s" not in signals[last + 1]  # gone: no value
+
+
+def test_runs_of_a_road_case_in_a_reuse_block_are_those_of_fresh_runs(tmp_path: pathlib.Path) -> None:
+    from btgen_pytrees.systems.sumo import kept_simulation, reuse_simulations
+
+    (tmp_path / "road.xodr").write_text(STRAIGHT)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}}, 10.0),
+                "Cut": entity({"RelativeLanePosition": {"entityRef": "Ego", "dLane": -1, "ds": 20, "offset": 0.3}}, 10.0)}  # fmt: skip
+    execute = [{"id": "L", "kind": "behavior", "action": "sumo.lane_change", "params": {"vehicle": "Cut", "lane": -1, "duration": 1}}]
+    path = write_case(tmp_path, "road.xodr", entities, timeout=1.5, execute=execute, expect="Cut.t >= -6")
+    registry = default_registry()
+    case = btgen_pytrees.load(str(path), registry=registry)
+
+    def once() -> str:
+        system = btgen_pytrees.run.create_system(case, registry)
+        root = generate(case, registry=registry, clock=system)
+        report = run_tree(root, case, system=system, record=True)
+        root.btgen_env.clear()
+        return report.to_json()
+
+    fresh = once()
+    with reuse_simulations():
+        again = [once(), once(), once()]
+        kept = kept_simulation()
+    assert again == [fresh] * 3 and '"verdict": "pass"' in fresh
+    assert kept is None  # nothing kept for a road case

@@ -13,6 +13,7 @@ run without it ends with a message saying how to install it. See docs/sumo.md.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 import re
@@ -184,8 +185,14 @@ class SumoType:
         options = {**scenario.options, **parse_options(list(spec.options))[0]}
         spawned = [e.params["vehicle"] for e in case.entries if e.action == "sumo.spawn"]
         tracked = signal_vehicles([*scenario.vehicles, *spawned])
+        if road is not None:  # SUMO's saved state is not the start of a road case: start SUMO for every run
+            scenario = dataclasses.replace(scenario, restore_problem=ROAD_RESTORE_PROBLEM)
         return SumoSystem(scenario, options, case.tick, tracked, spawns=bool(spawned), road=road)
 
+
+ROAD_RESTORE_PROBLEM = ("a case on an OpenDRIVE road: SUMO's saved state rounds the vehicles' places to centimetres and "
+                        "drops their lateral departure offsets, so a loaded state is not the case's start")
+"""Why a simulation of a case on an OpenDRIVE road is not kept between runs (docs/opendrive.md)."""
 
 _ROAD_ACTIONS = ("lane_change", "lane_offset", "teleport", "follow", "trajectory")
 

@@ -17,26 +17,36 @@ Registered by :mod:`btgen_pytrees.pytest_plugin` when a session asks for it.
   the verdict table with the margins of failed criteria, why (what was still
   waiting), and the tree with the last status of every node - no traceback.
   With ``--btgen-artifacts DIR`` a failing item also writes its JSON report,
-  plot (the ``plot`` extra) and replay page into DIR.
+  plot (the ``plot`` extra) and replay page into DIR, under names of its own
+  (:func:`artifact_base`); the reports written there are not collected as cases.
+* **The budget**: every run has the work budget of ``run`` (``--btgen-max-work``,
+  ``btgen_max_work``; default :data:`~btgen_pytrees.load.MAX_WORK`): a case over it
+  is a collection error, a run that spends it ends ``error`` and fails.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import fnmatch
+import hashlib
 import os
+import pickle
 import re
+import traceback
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 import pytest
 
+from .cli.options import positive
 from .construct import generate
 from .errors import MAX_PROBLEMS, InvalidTestCase, printable
 from .leaves import FactoryError, PluginError, Registry, default_registry
-from .leaves.plugins import is_path
-from .load import check_work, load_json, validate
+from .leaves.plugins import is_path, loads_user_code
+from .load import MAX_WORK, check_work, load_json, validate
 from .model import TestCase
+from .supervise import LOST, ChildLost, in_child
 from .writing import commit
 from .run import Report, run, run_tree
 from .run.plot import PlotUnavailable, plot_bytes, require_matplotlib
@@ -46,9 +56,10 @@ from .load.template import has_variations
 from .sweep.overrides import MAX_NAME, choose, given_values
 from .systems import System, SystemSpec
 from .systems.sumo import libsumo_installed
-from .systems.sumo.system import INSTALL_HINT
+from .systems.sumo.system import INSTALL_HINT, libsumo_module
 
-__all__ = ["Settings", "settings", "CaseFile", "CaseItem", "CaseFailed", "Btgen", "in_ci"]
+__all__ = ["Settings", "settings", "CaseFile", "CaseItem", "CaseFailed", "ItemError", "Btgen", "in_ci", "ARTIFACTS_TAG",
+           "artifact_base", "is_artifact"]
 
 
 def in_ci() -> bool:
@@ -66,6 +77,12 @@ class Settings:
     artifacts: str | None
     rootdir: Path
     registry: Registry
+    max_work: int = MAX_WORK
+    taken: set[str] = dataclasses.field(default_factory=set)
+    """The artifact names this session's runs have written (:func:`artifact_base`): none is written twice."""
+    supervised: bool = False
+    """Whether items run in a supervised child: user code is loaded (plugins, installed entry points) and
+    ``os.fork`` exists - so a leaf's ``os._exit(0)`` fails its item instead of ending the session with 0."""
 
 
 _KEY = pytest.StashKey[Settings]()
@@ -84,6 +101,45 @@ def _system(text: str, base: Path) -> SystemSpec | None:
     return SystemSpec(kind, str(base / config) if config else None)
 
 
+def _budget(text: str, where: str) -> int:
+    """The work budget *text* read as ``run --max-work`` reads it; a usage error otherwise."""
+    try:
+        return positive(text) if text else MAX_WORK
+    except argparse.ArgumentTypeError as error:
+        raise pytest.UsageError(f"btgen_pytrees: {where} {text}: {error}") from None
+
+
+def _artifacts_dir(given: str, base: Path, where: str) -> str | None:
+    """*given* (relative to *base*) made absolute, if a directory can be made there: an existing file, or a
+    file on the way, is a usage error (pytest's exit 4), not a traceback when the first item fails."""
+    if not given:
+        return None
+    path = at = base / given
+    while not at.exists() and at != at.parent:
+        at = at.parent
+    if not at.is_dir():
+        raise pytest.UsageError(f"btgen_pytrees: {where} {given}: {_shown(at, base)} is a file, not a directory")
+    return str(path)
+
+
+def _try_loading(plugins: list[str]) -> None:
+    """Load the plugins once in a supervised child before pytest's process does: one that ends the process
+    as it loads (``os._exit(0)`` at import) is a usage error (exit 4), not a session ended with 0. What
+    else goes wrong there is left to the real loading, which says it."""
+
+    def load() -> bytes:
+        try:
+            default_registry(plugins)
+        except BaseException:  # noqa: BLE001 - reported by the loading in pytest's process
+            pass
+        return b""
+
+    try:
+        in_child(load)
+    except ChildLost as lost:
+        raise pytest.UsageError(f"btgen_pytrees: error: the process loading the plugins {lost} {LOST}") from None
+
+
 def settings(config: pytest.Config) -> Settings:
     """The :class:`Settings` of *config*'s session: command line first, then the ini file."""
     if _KEY in config.stash:
@@ -93,14 +149,20 @@ def settings(config: pytest.Config) -> Settings:
     plugins = [p if not is_path(p) else str(here / p) for p in option("btgen_plugin") or []] or [
         p if not is_path(p) else str(ini / p) for p in from_ini("btgen_plugins")]  # fmt: skip
     system = _system(option("btgen_system"), here) if option("btgen_system") else _system(from_ini("btgen_system"), ini)
-    artifacts = str(here / option("btgen_artifacts")) if option("btgen_artifacts") else (
-        str(ini / from_ini("btgen_artifacts")) if from_ini("btgen_artifacts") else None)  # fmt: skip
+    artifacts = (_artifacts_dir(option("btgen_artifacts"), here, "--btgen-artifacts") if option("btgen_artifacts")
+                 else _artifacts_dir(from_ini("btgen_artifacts"), ini, "btgen_artifacts"))  # fmt: skip
+    budget = (_budget(option("btgen_max_work"), "--btgen-max-work") if option("btgen_max_work") else
+              _budget(from_ini("btgen_max_work"), "btgen_max_work"))  # fmt: skip
+    supervised = hasattr(os, "fork") and loads_user_code(plugins)
+    if supervised:
+        _try_loading(plugins)
     try:
         registry = default_registry(plugins)
     except (PluginError, FactoryError) as error:
         raise pytest.UsageError(f"btgen_pytrees: {error}") from None
     patterns = list(option("btgen_files") or from_ini("btgen_files"))
-    config.stash[_KEY] = Settings(patterns, plugins, system, artifacts, Path(config.rootpath), registry)
+    config.stash[_KEY] = Settings(patterns, plugins, system, artifacts, Path(config.rootpath), registry, budget,
+                                  supervised=supervised)  # fmt: skip
     return config.stash[_KEY]
 
 
@@ -120,10 +182,23 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Col
     config = parent.config
     if not (config.getoption("btgen_files") or config.getini("btgen_files")):
         return None  # registered for the fixture only
-    wanted = settings(config).patterns
-    if parent.session.isinitpath(file_path) or any(_matches(p, file_path) for p in wanted):
+    if parent.session.isinitpath(file_path):
+        return CaseFile.from_parent(parent, path=file_path)
+    if any(_matches(p, file_path) for p in settings(config).patterns) and not is_artifact(file_path):
         return CaseFile.from_parent(parent, path=file_path)
     return None
+
+
+ARTIFACTS_TAG = ".btgen-artifacts"
+"""The file that marks a directory written by ``--btgen-artifacts``: its ``*.report.json`` are reports."""
+
+_TAG_TEXT = ("This directory holds the artifacts of failing btgen_pytrees test cases (pytest --btgen-artifacts).\n"
+             "Its *.report.json files are run reports, not test cases: the pytest plugin does not collect them.\n")
+
+
+def is_artifact(path: Path) -> bool:
+    """Whether *path* is a report ``--btgen-artifacts`` wrote (a ``*.report.json`` beside :data:`ARTIFACTS_TAG`)."""
+    return path.name.endswith(REPORT_SUFFIX) and (path.parent / ARTIFACTS_TAG).is_file()
 
 
 def _shown(path: Path, rootdir: Path) -> str:
@@ -154,6 +229,13 @@ def _item_name(text: str, fallback: str) -> str:
     return printable(text).replace("::", ":_:") or fallback
 
 
+def _item(parent: CaseFile, name: str, **kwargs: Any) -> CaseItem:
+    """The item *name* of *parent*, its node id given as text: pytest 9 parses such a text into names and
+    ``[params]``, as it parses the ids ``--lf`` and ``--sw`` read back from its cache - an id built from the
+    name alone would keep ``brake[hard]`` whole, and never equal the cached one."""
+    return CaseItem.from_parent(parent, name=name, nodeid=f"{parent.nodeid}::{name}", **kwargs)
+
+
 class CaseFile(pytest.File):
     """A JSON test case file: one item, or one per variation of a sweep."""
 
@@ -162,27 +244,31 @@ class CaseFile(pytest.File):
         shown = _shown(self.path, conf.rootdir)
         try:
             data = load_json(str(self.path))
-            if _needs_sumo(data, conf.system) and not libsumo_installed():
+            sumo = _needs_sumo(data, conf.system)
+            if sumo and not libsumo_installed():
                 reason = f"{shown}: needs the 'sumo' extra, and libsumo is not installed ({INSTALL_HINT})"
                 if in_ci():
                     raise self.CollectError(reason + "; under CI=true this is an error, not a skip")
                 pytest.skip(reason)
             if has_variations(data):
-                sweep = load_sweep(data, registry=conf.registry, source_name=str(self.path), system=conf.system)
+                sweep = load_sweep(data, registry=conf.registry, source_name=str(self.path), system=conf.system,
+                                   max_work=conf.max_work)  # fmt: skip
                 stem = _item_name(sweep.name, self.path.stem)
                 for variation in sweep:
                     name = f"{stem}[{printable(variation.label)}]"
                     document = {**variation.document, "name": f"{sweep.name}[{variation.label}]"[:MAX_NAME]}
-                    # the node id given as text: pytest 9 parses it into name and [params], as it parses the
-                    # ids --lf and --sw read back from its cache (built from the name alone, they would differ)
-                    yield CaseItem.from_parent(self, name=name, nodeid=f"{self.nodeid}::{name}", document=document,
-                                               parameters=dict(variation.values))  # fmt: skip
+                    yield _item(self, name, document=document, parameters=dict(variation.values), sumo=sumo)
                 return
             case = validate(data, str(self.path), conf.registry, conf.system)
-            check_work(case)
+            check_work(case, conf.max_work)
         except InvalidTestCase as error:
             raise self.CollectError(invalid_text(error, shown)) from None
-        yield CaseItem.from_parent(self, name=_item_name(case.name, self.path.stem), case=case)
+        yield _item(self, _item_name(case.name, self.path.stem), case=case, sumo=sumo)
+
+
+class ItemError(Exception):
+    """An item that gave no report: ``str()`` is what it shows (an invalid variation, a supervised run's
+    exception as its traceback's text)."""
 
 
 class CaseFailed(Exception):
@@ -207,15 +293,41 @@ def failure_text(report: Report, written: list[str] = (), notes: list[str] = ())
     return text.rstrip("\n")
 
 
-def _artifact_base(nodeid: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.=,\[\]+-]+", "_", nodeid).strip("_")[:200] or "case"
+REPORT_SUFFIX = ".report.json"
+MAX_READABLE = 200
+"""The most characters of a node id an artifact's name keeps (the digest after it tells longer ids apart)."""
 
 
-def write_artifacts(directory: str, nodeid: str, report: Report, case: TestCase,
-                    registry: Registry) -> tuple[list[str], list[str]]:  # fmt: skip
-    """Write the JSON report, the plot (svg) and the replay page of a failing run; (written, notes)."""
-    base = os.path.join(directory, _artifact_base(nodeid))
-    outputs: list[tuple[str, str | bytes]] = [(base + ".report.json", report.to_json())]
+def artifact_base(nodeid: str, taken: set[str]) -> str:
+    """The name, without suffix, of the artifacts of a run of *nodeid*: unique in the session.
+
+    The node id made a file name (``/``, ``::`` and other characters outside
+    ``A-Za-z0-9_.=,[]+-`` become ``_``, cut at :data:`MAX_READABLE`), then ``-``
+    and 12 hex digits of the id's SHA-256: ids that read alike once made a name
+    (``a b.json`` and ``a_b.json``, ``a/b.json`` and ``a_b.json``, two cut at the
+    same length) differ in their digest, and the same item has the same name in
+    every session. A second run of one id in the session (the fixture run twice
+    in one test, a rerun plugin) gets ``-2``, ``-3``...: nothing written in a
+    session is replaced. The name returned is added to *taken*.
+    """
+    readable = re.sub(r"[^A-Za-z0-9_.=,\[\]+-]+", "_", nodeid).strip("_")[:MAX_READABLE] or "case"
+    base = f"{readable}-{hashlib.sha256(nodeid.encode('utf-8', 'surrogatepass')).hexdigest()[:12]}"
+    name, count = base, 1
+    while name in taken:
+        count += 1
+        name = f"{base}-{count}"
+    taken.add(name)
+    return name
+
+
+def write_artifacts(directory: str, nodeid: str, report: Report, case: TestCase, registry: Registry,
+                    taken: set[str]) -> tuple[list[str], list[str]]:  # fmt: skip
+    """Write the JSON report, the plot (svg) and the replay page of a failing run; (written, notes).
+
+    A directory that cannot be written (removed, made a file, full) is a note, not an error: the item
+    fails for its verdict either way, and its failure text says what was not written."""
+    base = os.path.join(directory, artifact_base(nodeid, taken))
+    outputs: list[tuple[str, str | bytes]] = [(base + REPORT_SUFFIX, report.to_json())]
     notes = []
     try:
         require_matplotlib()
@@ -223,17 +335,24 @@ def write_artifacts(directory: str, nodeid: str, report: Report, case: TestCase,
     except PlotUnavailable as missing:
         notes.append(f"the plot: {missing}")
     outputs.append((base + ".replay.html", replay_html(report, case, generate(case, registry=registry))))
-    os.makedirs(directory, exist_ok=True)
-    return commit(outputs), notes
+    try:
+        os.makedirs(directory, exist_ok=True)
+        tag = os.path.join(directory, ARTIFACTS_TAG)
+        if not os.path.isfile(tag):
+            commit([(tag, _TAG_TEXT)])
+        return commit(outputs), notes
+    except OSError as error:
+        return [], [*notes, f"the artifacts in {directory}: {error.strerror or error}"]
 
 
 class CaseItem(pytest.Item):
     """One run: a case, or one variation of a sweep (``parameters`` holds its values)."""
 
     def __init__(self, *, case: TestCase | None = None, document: Mapping[str, Any] | None = None,
-                 parameters: Mapping[str, Any] | None = None, **kwargs: Any) -> None:  # fmt: skip
+                 parameters: Mapping[str, Any] | None = None, sumo: bool = False, **kwargs: Any) -> None:  # fmt: skip
         super().__init__(**kwargs)
         self.case = case
+        self.sumo = sumo
         self.document = document
         self.parameters = dict(parameters or {})
         for name, value in self.parameters.items():
@@ -241,24 +360,54 @@ class CaseItem(pytest.Item):
 
     def runtest(self) -> None:
         conf = settings(self.config)
-        case = self.case
-        if case is None:
-            case = validate(self.document, str(self.path), conf.registry, conf.system)
-        report = run(case, registry=conf.registry)
+        if conf.supervised:
+            if self.sumo:  # imported once here, not in every child (it takes about a second)
+                libsumo_module()
+            try:
+                kind, *result = pickle.loads(in_child(self._outcome_bytes))
+            except ChildLost as lost:
+                self.user_properties.append(("verdict", "error"))
+                raise ItemError(f"{self.name}: ERROR - the run's process {lost} {LOST}") from None
+        else:
+            kind, *result = self._outcome(conf)
+        if kind != "ran":
+            raise ItemError(result[0])
+        report, written, notes = result
+        if written:  # the child's names are the session's too
+            conf.taken.add(Path(written[0]).name.removesuffix(REPORT_SUFFIX))
         self.user_properties.append(("verdict", report.verdict))
-        if report.passed:
-            return
+        if not report.passed:
+            raise CaseFailed(report, written, notes)
+
+    def _outcome(self, conf: Settings) -> tuple[Any, ...]:
+        """Run the item: ``("ran", report, written, notes)``, or ``("invalid", text)`` (a variation's check)."""
+        case = self.case
+        try:
+            if case is None:
+                case = validate(self.document, str(self.path), conf.registry, conf.system)
+        except InvalidTestCase as error:
+            return ("invalid", invalid_text(error, _shown(self.path, conf.rootdir)))
+        report = run(case, registry=conf.registry, max_work=conf.max_work)
         written, notes = [], []
-        if conf.artifacts:
-            written, notes = write_artifacts(conf.artifacts, self.nodeid, report, case, conf.registry)
-        raise CaseFailed(report, written, notes)
+        if not report.passed and conf.artifacts:
+            written, notes = write_artifacts(conf.artifacts, self.nodeid, report, case, conf.registry, conf.taken)
+        return ("ran", report, written, notes)
+
+    def _outcome_bytes(self) -> bytes:
+        """:meth:`_outcome` in a supervised child (``btgen_pytrees.supervise.in_child``), pickled for the
+        parent - an exception too, as its traceback's text (the parent fails the item with it)."""
+        try:
+            outcome: tuple[Any, ...] = self._outcome(settings(self.config))
+            return pickle.dumps(outcome)
+        except BaseException:  # noqa: BLE001 - any, SystemExit too: the item's error, reported by the parent
+            return pickle.dumps(("raised", traceback.format_exc()))
 
     def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException], style: Any = None) -> Any:
         if isinstance(excinfo.value, CaseFailed):
             failed = excinfo.value
             return failure_text(failed.report, failed.written, failed.notes)
-        if isinstance(excinfo.value, InvalidTestCase):
-            return invalid_text(excinfo.value, _shown(self.path, settings(self.config).rootdir))
+        if isinstance(excinfo.value, ItemError):
+            return str(excinfo.value)
         return super().repr_failure(excinfo, style=style)
 
     def reportinfo(self) -> tuple[Path, int | None, str]:
@@ -270,7 +419,10 @@ class Btgen:
 
     Relative paths are relative to pytest's rootdir (where the ini file is), so
     ``btgen.run("cases/follow.json")`` works wherever pytest is started. The
-    session's ``--btgen-plugin``/``--btgen-system``/``--btgen-artifacts`` apply.
+    session's ``--btgen-plugin``/``--btgen-system``/``--btgen-artifacts``/``--btgen-max-work`` apply.
+    Its runs are the test's own code, in the test's process (the system is the
+    test's object, which it may read after the run): unlike items, never in a
+    supervised child.
     A run that does not pass adds its explanation (as a failing item shows it)
     to the test's report, so ``assert report.passed`` fails with the reason.
     """
@@ -291,7 +443,7 @@ class Btgen:
             data = choose(data, full, given_values(dict(parameters or {}), "parameters"), registry=self.registry,
                           system=self.settings.system).document  # fmt: skip
         case = validate(data, full, self.registry, self.settings.system)
-        check_work(case)
+        check_work(case, self.settings.max_work)
         return case
 
     def run(self, path: str | os.PathLike[str], *, system: System | None = None,
@@ -300,17 +452,17 @@ class Btgen:
         or else the case's own (or ``--btgen-system``); return its :class:`~btgen_pytrees.run.Report`."""
         case = self.load(path, parameters=parameters)
         if system is None:
-            report = run(case, registry=self.registry)
+            report = run(case, registry=self.registry, max_work=self.settings.max_work)
         else:
             root = generate(case, registry=self.registry, clock=system)
             try:
-                report = run_tree(root, case, system=system)
+                report = run_tree(root, case, system=system, max_work=self.settings.max_work)
             finally:
                 root.btgen_env.release()
         if not report.passed:
             written, notes = [], []
             if self.settings.artifacts:
                 written, notes = write_artifacts(self.settings.artifacts, self.request.node.nodeid, report, case,
-                                                 self.registry)  # fmt: skip
+                                                 self.registry, self.settings.taken)  # fmt: skip
             self.request.node.add_report_section("call", f"btgen {report.test}", failure_text(report, written, notes))
         return report

@@ -39,12 +39,16 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--btgen-artifacts", metavar="DIR", default=None,
                     help="write the report, plot and replay page of every failing case into DIR "
                          "(overrides the ini option btgen_artifacts)")  # fmt: skip
+    group.addoption("--btgen-max-work", metavar="N", default=None,
+                    help="as the CLI's run --max-work: the work budget of every run, by default the CLI's (overrides the "
+                         "ini option btgen_max_work)")  # fmt: skip
     parser.addini("btgen_files", type="args", default=[],
                   help="glob patterns of JSON test case files to collect, e.g. test_*.json (off when empty)")
     parser.addini("btgen_plugins", type="args", default=[],
                   help="leaf/system plugins, MODULE or FILE.py (a file relative to the ini file's directory)")
     parser.addini("btgen_system", default="", help="TYPE[:CONFIG] to run every case against (CONFIG relative to the ini file's directory)")
     parser.addini("btgen_artifacts", default="", help="directory for the reports, plots and replay pages of failing cases")
+    parser.addini("btgen_max_work", default="", help="the work budget of every run, as run --max-work (default: the CLI's)")
 
 
 def enabled(config: pytest.Config) -> bool:

@@ -10,6 +10,10 @@ user code and exits only with a code it was handed: a child that ended without
 handing one over is reported as an error (exit 1, like a batch file whose worker
 died).
 
+The pytest plugin runs each test case the same way (:func:`in_child`): the run
+in a forked child that hands its result back, an item whose child ended without
+handing it over failing with the same line.
+
 Signals: Ctrl-C reaches both processes (the terminal signals its whole
 process group) and a SIGINT or SIGTERM sent to the parent alone is passed on
 to the child, which stops as it always does (130/143). User code can ignore
@@ -25,18 +29,29 @@ from __future__ import annotations
 
 import atexit
 import os
+import select
 import signal
 import sys
+import time
 from typing import Any, Callable, NoReturn
 
 from .errors import ExitCode
 from .writing import own_streams
 
-__all__ = ["supervised", "STOP_GRACE"]
+__all__ = ["supervised", "STOP_GRACE", "in_child", "ChildLost", "LOST"]
 
 STOP_GRACE = 2.0
 """Seconds a supervised command has to stop after SIGINT/SIGTERM (its own workers get half a second
-of them) before it is killed: user code may ignore the signals."""
+of them) before it is killed: user code may ignore the signals. A pytest item's child, the same."""
+
+LOST = ("before giving a verdict (user code - a plugin, a leaf or a system - ended it, e.g. with os._exit); "
+        "nothing it did counts")
+"""What the CLI and the pytest plugin say of a child that ended without handing over its result."""
+
+
+class ChildLost(Exception):
+    """The child of :func:`in_child` ended without handing back its result; ``str()`` says how it ended
+    (``exited with status 0``, ``was killed by SIGSEGV``)."""
 
 
 def _death(status: int) -> str:
@@ -149,6 +164,93 @@ def supervised(work: Callable[[], int], on_error: Callable[[str], None]) -> int:
     if os.WIFSIGNALED(status) and os.WTERMSIG(status) in (signal.SIGINT, signal.SIGTERM):  # before its handlers
         on_error(f"btgen_pytrees: interrupted by {signal.Signals(os.WTERMSIG(status)).name}")
         return 128 + os.WTERMSIG(status)
-    on_error(f"btgen_pytrees: error: the command's process {_death(status)} before giving a verdict (user code - "
-             "a plugin, a leaf or a system - ended it, e.g. with os._exit); nothing it did counts")  # fmt: skip
+    on_error(f"btgen_pytrees: error: the command's process {_death(status)} {LOST}")
     return ExitCode.FAIL
+
+
+def _flush() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError, AttributeError):  # closed or replaced by user code (None), a full disk
+            pass
+
+
+def _stop(pid: int) -> None:
+    """End child *pid* and reap it: SIGTERM, :data:`STOP_GRACE` seconds, then SIGKILL."""
+    try:
+        os.kill(pid, signal.SIGTERM)
+        deadline = time.monotonic() + STOP_GRACE
+        while time.monotonic() < deadline:
+            if os.waitpid(pid, os.WNOHANG)[0]:
+                return
+            time.sleep(0.01)
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    except ChildProcessError:  # already reaped
+        pass
+    except ProcessLookupError:
+        os.waitpid(pid, 0)
+
+
+def _collect(read_end: int, pid: int) -> tuple[bytes, int]:
+    """What child *pid* wrote to *read_end*, and its wait status, once it has ended. A grandchild still
+    holding the pipe open does not keep this waiting: the child's end is checked every 0.1 s."""
+    chunks: list[bytes] = []
+    while True:
+        if select.select([read_end], [], [], 0.1)[0]:
+            chunk = os.read(read_end, 1 << 16)
+            if chunk:
+                chunks.append(chunk)
+                continue
+            return b"".join(chunks), os.waitpid(pid, 0)[1]  # every writer closed the pipe
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            os.set_blocking(read_end, False)
+            try:
+                while chunk := os.read(read_end, 1 << 16):
+                    chunks.append(chunk)
+            except BlockingIOError:
+                pass
+            return b"".join(chunks), status
+
+
+def in_child(work: Callable[[], bytes]) -> bytes:
+    """Run *work* in a forked child and return the bytes it returns; :class:`ChildLost` if the child ends
+    without handing them back whole (``os._exit``, a crash, killed).
+
+    The child runs nothing else: once its bytes are handed over it ends at once (``os._exit``), with
+    neither the ``atexit`` handlers nor the teardown of the process it is a copy of - they belong to the
+    parent. *work* should return its errors as bytes too: one it raises ends the child unheard. An
+    exception in the parent while it waits (Ctrl-C) stops the child (SIGTERM, then SIGKILL after
+    :data:`STOP_GRACE` seconds) before it propagates. Needs ``os.fork`` (POSIX).
+    """
+    _flush()
+    parent = os.getpid()
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child
+        status = ExitCode.FAIL
+        try:
+            os.close(read_end)
+            _die_with_parent()
+            if os.getppid() == parent:  # else the parent died before prctl took effect
+                payload = work()
+                view = memoryview(len(payload).to_bytes(8, "big") + payload)
+                while view:
+                    view = view[os.write(write_end, view):]
+                status = 0
+        finally:
+            _flush()
+            os._exit(status)
+    os.close(write_end)
+    try:
+        data, status = _collect(read_end, pid)
+    except BaseException:
+        _stop(pid)
+        raise
+    finally:
+        os.close(read_end)
+    if len(data) >= 8 and int.from_bytes(data[:8], "big") == len(data) - 8:
+        return data[8:]
+    raise ChildLost(_death(status))

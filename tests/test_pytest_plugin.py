@@ -10,6 +10,7 @@ loaded once (the entry point has the module's name).
 
 from __future__ import annotations
 
+import hashlib
 import importlib.metadata
 import json
 import pathlib
@@ -17,6 +18,8 @@ import shutil
 import xml.etree.ElementTree as ET
 
 import pytest
+
+from btgen_pytrees.cli import main as cli_main
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -180,13 +183,12 @@ def test_artifacts_of_failing_items(cases: pytest.Pytester) -> None:
     pytest.importorskip("matplotlib")
     result = cases.runpytest(*PLUGIN, "--btgen-files=fig1*.json", "-k", "fig1 and not sweep", "--btgen-artifacts=out")
     result.assert_outcomes(passed=1, failed=1)
-    written = sorted(p.name for p in (cases.path / "out").iterdir())
-    assert "fig1_failing.json_fig1_failing.report.json" in written  # the passing case writes nothing
-    assert "fig1_failing.json_fig1_failing.plot.svg" in written
-    assert "fig1_failing.json_fig1_failing.replay.html" in written
-    report = json.loads((cases.path / "out" / "fig1_failing.json_fig1_failing.report.json").read_text())
+    base = "fig1_failing.json_fig1_failing-" + hashlib.sha256(b"fig1_failing.json::fig1_failing").hexdigest()[:12]
+    written = sorted(p.name for p in (cases.path / "out").iterdir())  # the passing case writes nothing
+    assert written == [".btgen-artifacts", f"{base}.plot.svg", f"{base}.replay.html", f"{base}.report.json"]
+    report = json.loads((cases.path / "out" / f"{base}.report.json").read_text())
     assert report["verdict"] == "fail" and "false by 1" in report["explanation"][0]
-    result.stdout.fnmatch_lines(["written: */out/fig1_failing.json_fig1_failing.report.json"])
+    result.stdout.fnmatch_lines([f"written: */out/{base}.report.json"])
 
 
 # -- options -------------------------------------------------------------------------------------
@@ -294,3 +296,164 @@ def test_entry_point_loads_the_plugin_without_p(cases: pytest.Pytester) -> None:
         pytest.skip("this environment's btgen_pytrees metadata predates the entry point (pip install -e . again)")
     result = cases.runpytest_subprocess("--btgen-files=fig1.json", "-q")
     result.assert_outcomes(passed=1)
+
+
+# -- attacks (issue 35): nothing lost, nothing green by accident ----------------------------------
+
+
+def waiting(name: str, need: float, **more: object) -> dict[str, object]:
+    """A case that waits for ``x >= need`` (x stays 0): passes at once for 0, times out after 0.2 s above."""
+    return {"name": name, "tick": 0.1, "timeout": 0.2, "signals": {"x": 0}, **more,
+            "execute": [{"id": "A", "kind": "constraint", "action": "until", "params": {"expect": f"x >= {need}"}}]}  # fmt: skip
+
+
+def failed_ids(result: pytest.RunResult) -> set[str]:
+    return {line.split(" ")[1] for line in result.outlines if line.startswith("FAILED ")}
+
+
+def test_last_failed_reruns_the_cases_named_with_brackets(pytester: pytest.Pytester) -> None:
+    """7 failures, names with brackets among them; one fixed: ``--lf`` reruns the 7 (the 6 still fail, exit 1),
+    then exactly the 6."""
+    names = ["brake[hard]", "brake[soft]", "turn[left][fast]", "empty[]", "plain"]
+    for i, name in enumerate(names):
+        (pytester.path / f"c{i}.json").write_text(json.dumps(waiting(name, 1)))
+    sweep = waiting("sweep[x]", "$need", parameters={"need": 1}, variations={"need": [1, 2]})
+    (pytester.path / "sweep.json").write_text(json.dumps(sweep))
+    first = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", "-q")
+    everything = {f"c{i}.json::{name}" for i, name in enumerate(names)} | {
+        "sweep.json::sweep[x][need=1]", "sweep.json::sweep[x][need=2]"}  # fmt: skip
+    assert first.ret == pytest.ExitCode.TESTS_FAILED and failed_ids(first) == everything
+    (pytester.path / "c1.json").write_text(json.dumps(waiting("brake[soft]", 0)))  # fixed
+    again = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", "--lf", "-q")
+    again.assert_outcomes(passed=1, failed=6)  # the 7 that failed: the fixed one passes, the others still fail
+    assert failed_ids(again) == everything - {"c1.json::brake[soft]"}
+    still = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", "--lf", "-q")
+    still.assert_outcomes(failed=6)  # and then exactly the 6
+    assert failed_ids(still) == everything - {"c1.json::brake[soft]"}
+    one = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", "c0.json::brake[hard]", "-q")
+    one.assert_outcomes(failed=1)  # a node id with brackets selects its item on the command line too
+
+
+EXITS_IN_A_LEAF = '''
+import os
+import py_trees
+from py_trees.common import Status
+
+
+class Leaf(py_trees.behaviour.Behaviour):
+    def __init__(self, entry, env):
+        super().__init__(name=entry.name)
+        self.how = entry.action
+
+    def update(self):
+        if self.how == "exit0":
+            os._exit(0)
+        return Status.SUCCESS
+
+
+def register(registry):
+    for action in ("exit0", "fine"):
+        registry.register(action, lambda e, env: Leaf(e, env), kind="behavior")
+'''
+
+
+def test_a_leaf_ending_the_process_fails_its_item_and_the_session_goes_on(pytester: pytest.Pytester) -> None:
+    """``os._exit(0)`` in a plugin leaf: its item fails, the cases after it run, pytest exits 1; at the plugin's
+    import: exit 4. (Processes of their own: were the run not supervised, it would end the session that runs it.)"""
+    (pytester.path / "leaves.py").write_text(EXITS_IN_A_LEAF)
+    for name, action in (("a_exit", "exit0"), ("b_fine", "fine")):
+        case = {"name": name, "tick": 0.1, "timeout": 1, "execute": [{"id": "A", "kind": "behavior", "action": action}]}
+        (pytester.path / f"{name}.json").write_text(json.dumps(case))
+    (pytester.path / "c_fail.json").write_text(json.dumps(waiting("c_fail", 1)))
+    result = pytester.runpytest_subprocess(*PLUGIN, "--btgen-files=*.json", "--btgen-plugin=leaves.py",
+                                           "-p", "no:cacheprovider", "--junitxml=out.xml")  # fmt: skip
+    assert result.ret == pytest.ExitCode.TESTS_FAILED
+    result.assert_outcomes(passed=1, failed=2)
+    result.stdout.fnmatch_lines(["a_exit: ERROR - the run's process exited with status 0 before giving a verdict "
+                                 "(user code - a plugin, a leaf or a system - ended it, e.g. with os._exit)*",
+                                 "FAILED a_exit.json::a_exit - a_exit: ERROR - *", "FAILED c_fail.json::c_fail *"])  # fmt: skip
+    suite = ET.parse(pytester.path / "out.xml").getroot()
+    verdicts = {c.get("name"): {p.get("value") for p in c.iter("property")} for c in suite.iter("testcase")}
+    assert verdicts == {"a_exit": {"error"}, "b_fine": {"pass"}, "c_fail": {"timeout"}}
+    # a plugin that ends the process as it is imported: a usage error, never a session ended with 0
+    (pytester.path / "exits.py").write_text("import os\nos._exit(0)\n")
+    at_import = pytester.runpytest_subprocess(*PLUGIN, "--btgen-files=*.json", "--btgen-plugin=exits.py", "-p", "no:cacheprovider")
+    assert at_import.ret == pytest.ExitCode.USAGE_ERROR
+    at_import.stderr.fnmatch_lines(["ERROR: btgen_pytrees: error: the process loading the plugins exited with status 0 "
+                                    "before giving a verdict *"])  # fmt: skip
+
+
+def test_items_and_the_fixture_have_the_budget_of_run(pytester: pytest.Pytester) -> None:
+    """A case ``run --max-work`` stops as ``error`` (exit 1) fails under pytest with that budget, from the command
+    line or the ini file, and the fixture's runs have it; a case over it at its first tick is refused as by run."""
+    long = {"name": "long", "tick": 0.1, "timeout": 10, "signals": {"x": 0},
+            "execute": [{"id": "A", "kind": "constraint", "action": "wait", "params": {"duration": 5}}]}  # fmt: skip
+    (pytester.path / "long.json").write_text(json.dumps(long))
+    assert cli_main(["run", str(pytester.path / "long.json"), "--max-work", "500"]) == 1  # 11 a tick: ~45 ticks
+    assert cli_main(["run", str(pytester.path / "long.json")]) == 0
+    pytester.makepyfile(test_fixture="""
+        def test_budget(btgen):
+            assert btgen.run("long.json").verdict == "error"
+    """)
+    spent = "long: ERROR - stopped: the work budget of 500 units is spent after 45 ticks x 11*"
+    result = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", "--btgen-max-work=500")
+    result.assert_outcomes(passed=1, failed=1)
+    result.stdout.fnmatch_lines([spent])
+    pytester.makeini("[pytest]\nbtgen_files = *.json\nbtgen_max_work = 5e2\n")
+    pytester.runpytest_inprocess(*PLUGIN).assert_outcomes(passed=1, failed=1)
+    refused = pytester.runpytest_inprocess(*PLUGIN, "--btgen-max-work=10")
+    refused.stdout.fnmatch_lines(["long.json: /execute: *more than the whole budget, 10*"])
+    refused.assert_outcomes(errors=1)
+    for bad in ("0", "many"):
+        wrong = pytester.runpytest_inprocess(*PLUGIN, f"--btgen-max-work={bad}")
+        assert wrong.ret == pytest.ExitCode.USAGE_ERROR and "Traceback" not in wrong.stderr.str()
+        wrong.stderr.fnmatch_lines([f"*btgen_pytrees: --btgen-max-work {bad}: *"])
+
+
+def reports_written(result: pytest.RunResult) -> list[pathlib.Path]:
+    """The reports the failures say they wrote (not the short summary's lines: under CI, pytest writes them whole)."""
+    lines = "\n".join(result.outlines).partition("short test summary info")[0].splitlines()
+    return [pathlib.Path(line.split("written: ", 1)[1]) for line in lines
+            if line.startswith("written: ") and line.endswith(".report.json")]  # fmt: skip
+
+
+def test_artifacts_are_never_replaced_by_another_items(pytester: pytest.Pytester) -> None:
+    """Ids alike once made a file name (``a b``/``a_b``, two cut at 200 characters), and the fixture's two runs
+    in one test: each failure's ``written: PATH`` holds that run's report. The reports written in the collected
+    folder are not collected the next time."""
+    (pytester.path / "a b.json").write_text(json.dumps(waiting("x", 1)))
+    (pytester.path / "a_b.json").write_text(json.dumps(waiting("x", 2)))
+    sweep = waiting("n" * 195, "$need", parameters={"need": 1}, variations={"need": [1, 2]})
+    (pytester.path / "long.json").write_text(json.dumps(sweep))
+    pytester.makepyfile(test_twice="""
+        def test_twice(btgen):
+            assert btgen.run("a_b.json").verdict == btgen.run("a b.json").verdict == "timeout"
+            assert False
+    """)
+    result = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", "--btgen-artifacts=out", "-p", "no:randomly")
+    result.assert_outcomes(failed=5)
+    written = reports_written(result)
+    assert len(written) == 6 and len(set(written)) == 6 and {p.parent for p in written} == {pytester.path / "out"}
+    reports = [json.loads(p.read_text()) for p in written]
+    # in the order pytest runs and reports them: each file holds the report of its own run
+    assert [(pathlib.Path(r["source"]).name, r["explanation"][0]) for r in reports] == [
+        ("a b.json", "no verdict after 0.2 s"), ("a_b.json", "no verdict after 0.2 s"),
+        ("long.json", "no verdict after 0.2 s"), ("long.json", "no verdict after 0.2 s"),
+        ("a_b.json", "no verdict after 0.2 s"), ("a b.json", "no verdict after 0.2 s")]  # fmt: skip
+    needs = [[need for need in (1, 2) if f"x >= {need} false by {need}" in json.dumps(r)] for r in reports]
+    assert needs == [[1], [2], [1], [2], [2], [1]]
+    assert len(list((pytester.path / "out").glob("*.report.json"))) == 6
+    # the reports are in the collected folder, and match *.json: the next session does not take them for cases
+    again = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", "-k", "not twice")
+    again.assert_outcomes(failed=4)
+
+
+@pytest.mark.parametrize("target", ["taken", "taken/sub"])
+def test_artifacts_on_a_file_is_a_usage_error(pytester: pytest.Pytester, target: str) -> None:
+    (pytester.path / "taken").write_text("a file")
+    (pytester.path / "fail.json").write_text(json.dumps(waiting("fail", 1)))
+    result = pytester.runpytest_inprocess(*PLUGIN, "--btgen-files=*.json", f"--btgen-artifacts={target}")
+    assert result.ret == pytest.ExitCode.USAGE_ERROR
+    result.stderr.fnmatch_lines([f"ERROR: btgen_pytrees: --btgen-artifacts {target}: taken is a file, not a directory"])
+    assert "Traceback" not in result.stderr.str() + result.stdout.str()
+    assert (pytester.path / "taken").read_text() == "a file"

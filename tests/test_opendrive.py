@@ -540,3 +540,14 @@ def test_runs_of_a_road_case_in_a_reuse_block_are_those_of_fresh_runs(tmp_path: 
         kept = kept_simulation()
     assert again == [fresh] * 3 and '"verdict": "pass"' in fresh
     assert kept is None  # nothing kept for a road case
+
+
+def test_a_cache_directory_that_cannot_be_written_is_exit_2_saying_so(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str],
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+    (tmp_path / "road.xodr").write_text(STRAIGHT.replace('length="600"', 'length="599"'))
+    (tmp_path / "file").write_text("not a directory")
+    monkeypatch.setenv("BTGEN_CACHE", str(tmp_path / "file" / "cache"))
+    case = write_case(tmp_path, "road.xodr", {"Ego": entity({"LanePosition": {"roadId": "7", "laneId": -1, "s": 10}})})
+    assert main(["validate", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "case.json: /system/road: road.xodr: cannot write the cache directory" in err and "set BTGEN_CACHE" in err, err

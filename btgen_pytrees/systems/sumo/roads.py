@@ -126,8 +126,18 @@ def convert(xodr: str) -> tuple[str, Network]:
     """The SUMO network of the ``.xodr`` at *xodr* (the path of the cached ``.net.xml``) and its roads.
 
     Raises:
-        OpenDriveError: the file is unreadable, unsafe or not OpenDRIVE, netconvert is missing, or it fails.
+        OpenDriveError: the file is unreadable, unsafe or not OpenDRIVE, netconvert is missing or fails, or the
+            cache directory cannot be written.
     """
+    try:
+        return _convert(xodr)
+    except OSError as exc:
+        raise OpenDriveError(f"{os.path.basename(xodr)}: cannot write the cache directory {cache_dir()} "
+                             f"({exc.strerror or exc}); set BTGEN_CACHE to a writable directory") from None
+
+
+def _convert(xodr: str) -> tuple[str, Network]:
+    """:func:`convert`, the cache directory's errors left as they are."""
     shown = os.path.basename(xodr)
     try:
         with open(xodr, "rb") as fh:

@@ -1265,3 +1265,39 @@ def test_a_stalled_model_keeps_half_its_runs_space_filling_so_it_finds_what_rand
     assert all(f is not None for f in found())
     monkeypatch.setattr(sampler, "STALL", 10**9)
     assert all(f is None for f in found())
+
+
+def test_a_hidden_box_region_gets_its_first_counterexample_within_003_of_its_nearest_point() -> None:
+    """A failing box hidden in a 4-parameter box of unlike units, the nominal point outside it: the first
+    counterexample is within 0.03 (the search's scaled distance, a fraction of the box's diagonal) of the
+    region's nearest point to the nominal point - the shrink along the segment alone ended 0.93-1.09 from
+    the nominal point where that point is 0.89 - and the report gives its distance."""
+    from btgen_pytrees.falsify import Search, Settings
+    from btgen_pytrees.falsify.report import report_data
+    from btgen_pytrees.falsify.space import Dimension, Space
+
+    space = Space((Dimension("a", "range", 0.0, 10.0, 0.01), Dimension("b", "range", -5.0, 5.0, 0.01),
+                   Dimension("c", "range", 0.0, 100.0, 0.1), Dimension("d", "range", 0.0, 1.0, 0.001)))  # fmt: skip
+    low, high = [0.6, 0.1, 0.7, 0.2], [0.8, 0.3, 0.9, 0.5]  # the region, in unit coordinates
+    nominal = {"a": 3.0, "b": 0.0, "c": 40.0, "d": 0.9}
+    n = space.unit(nominal)
+    nearest = [min(max(x, lo), hi) for x, lo, hi in zip(n, low, high)]
+
+    def margin(u: list[float]) -> float:  # the box's signed distance (max norm): < 0 inside
+        return max(max(lo - x, x - hi) for x, lo, hi in zip(u, low, high))
+
+    def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        rows = []
+        for p in points:
+            m = margin(space.unit(p))  # type: ignore[arg-type]
+            rows.append({"verdict": "fail" if m < 0 else "pass", "margins": {"F1": m}, "margin": m})
+        return rows
+
+    for seed in range(3):
+        search = Search(space, nominal, Settings(budget=400, seed=seed, stop="cluster"), evaluate, {"others": ("&&", ["F1"])}).run()
+        data = report_data(search, "hidden", "hidden.json")
+        first = data["counterexamples"][0]
+        unit = space.unit(first["parameters"])
+        assert space.distance(unit, nearest) <= 0.03, (seed, first["parameters"], space.values(nearest))
+        assert first["distance"] == pytest.approx(space.distance(unit, n))
+        assert first["distance"] >= space.distance(nearest, n) - 1e-9

@@ -388,10 +388,35 @@ def test_a_sweep_that_passes_lists_the_variations_closest_to_failing_and_maps_ma
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines()[1:] == [
         "",
-        "closest to failing:",
-        "  top_speed=30,limit=31  PASS     (margin 1)",
-        "  top_speed=30,limit=40  PASS     (margin 10)",
-        "  top_speed=20,limit=31  PASS     (margin 11)",
+        "closest to failing (lowest objective, as falsify's):",
+        "  top_speed=30,limit=31  PASS     (objective 0.1073, margin 1)",
+        "  top_speed=30,limit=40  PASS     (objective 1.073, margin 10)",
+        "  top_speed=20,limit=31  PASS     (objective 1.18, margin 11)",
     ]
-    if plot:  # coloured by margin: the colour bar is drawn
-        assert "margin (robustness; &lt; 0 failed)" in svg.read_text()
+    if plot:  # coloured by the objective: the colour bar is drawn
+        assert "objective (margins scaled, as falsify" in svg.read_text()
+
+
+def test_a_criterion_without_a_gradient_leaves_the_map_and_closest_to_failing_to_the_others(tmp_path: Path) -> None:
+    """A criterion whose margin is 0 on every passing run (as a collision count's is) pinned the oracle's
+    margin at 0: the map was one pale colour and "closest to failing" listed arbitrary rows. The map and
+    the list use falsify's objective instead: the graded criterion (R1, the speed limit) orders them."""
+    from btgen_pytrees.sweep.objective import document_groups
+    from btgen_pytrees.sweep.report import SweepReport
+
+    data = json.loads((ROOT / "examples" / "fig1_sweep.json").read_text())
+    data["variations"] = {"top_speed": [10, 20, 30], "limit": [31, 40]}
+    data["oracle"]["criteria"].append({"id": "F9", "type": "final", "expect": "mode - 1 == 0"})  # 0 on every passing run
+    path, svg = tmp_path / "flat.json", tmp_path / "map.svg"
+    path.write_text(json.dumps(data))
+    plot = ["--plot", str(svg)] if importlib.util.find_spec("matplotlib") else []
+    result = cli("run", str(path), "--jobs", "1", "--json", str(tmp_path / "r.json"), *plot)
+    assert result.returncode == 0, result.stderr
+    rows = json.loads((tmp_path / "r.json").read_text())["rows"]
+    assert {r["margin"] for r in rows} == {0}  # the oracle's margin says nothing of how close a run came
+    assert [line.split()[0] for line in result.stdout.splitlines()[3:6]] == ["top_speed=30,limit=31", "top_speed=30,limit=40", "top_speed=20,limit=31"]
+    report = SweepReport("flat", str(path), {}, ("top_speed", "limit"), rows=rows, groups=document_groups(data))
+    scores = report.objectives()
+    assert len(set(scores)) == len(rows)  # every passing run its own colour
+    if plot:
+        assert "objective (margins scaled" in svg.read_text()

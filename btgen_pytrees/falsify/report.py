@@ -290,15 +290,15 @@ def table(data: Mapping[str, Any]) -> str:
         lines.append(f"note: {note}")
     if data["clusters"]:
         lines.append("")
-        rows = [("cluster", "runs", "box", "shrunk counterexample", "objective", "margin")]
+        rows = [("cluster", "runs", "box", "shrunk counterexample", "distance", "objective", "margin")]
         shrunk = {c["cluster"]: c for c in data["counterexamples"] if c["kind"] == "shrunk"}
         for c in data["clusters"]:
             box = ", ".join(f"{k} {_v(v[0])}..{_v(v[-1])}" if len(v) == 2 and not isinstance(v[0], bool) else f"{k} {v}"
                             for k, v in c["box"].items())  # fmt: skip
             ce = shrunk.get(c["cluster"])
-            rows.append((str(c["cluster"]), str(c["runs"]), box, ce["label"] if ce else "", _v(ce["objective"]) if ce else "",
-                         _v(ce["margin"]) if ce else ""))  # fmt: skip
-        widths = [max(len(r[i]) for r in rows) for i in range(6)]
+            rows.append((str(c["cluster"]), str(c["runs"]), box, ce["label"] if ce else "", _v(ce["distance"]) if ce else "",
+                         _v(ce["objective"]) if ce else "", _v(ce["margin"]) if ce else ""))  # fmt: skip
+        widths = [max(len(r[i]) for r in rows) for i in range(7)]
         lines += ["  ".join(x.ljust(w) for x, w in zip(r, widths)).rstrip() for r in rows]
     if data["boundary"]:
         lines.append("")

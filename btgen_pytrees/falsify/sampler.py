@@ -203,6 +203,8 @@ class Sampler:
     def ask(self, n: int) -> list[list[float]]:
         """*n* new unit points (a choice index for each list parameter); the models' linear algebra on one
         BLAS thread (:func:`~.surrogate.one_thread`)."""
+        if self._stage not in ("gp", "cmaes") and not (self._stage == "start" and len(self.xs) + len(self._asked) >= self.start):
+            return self._ask(n)  # no linear algebra to limit: the start, the Sobol sequence, Optuna's samplers
         with one_thread():
             return self._ask(n)
 
@@ -257,6 +259,9 @@ class Sampler:
     def tell(self, values: Sequence[float | None]) -> None:
         """The objectives of the points asked (``None``: the run erred), in the order asked (CMA-ES's update
         on one BLAS thread, as :meth:`ask`)."""
+        if self._stage != "cmaes":
+            self._tell(values)  # only CMA-ES's update does linear algebra here
+            return
         with one_thread():
             self._tell(values)
 

@@ -8,10 +8,12 @@
   failures lie on top.
 
 Colour is the verdict (pass green, fail red, timeout orange, error grey). When
-the rows have a robustness *margin* (the oracle's: how far from failing;
-negative when failed), colour is the margin instead (an infinite one takes its
-end's colour), on a red-yellow-green scale centred on
-zero, and every variation that did not pass is also marked with a cross - so
+a criterion grades how close a passing run came, colour is the run's *objective*
+instead - the quantity ``falsify`` minimises (:mod:`.objective`: each graded
+criterion's margin scaled by its spread over the sweep, combined as the oracle
+combines them; negative when failed; a criterion without a gradient, such as a
+collision count that is 0 on every passing run, is left out) - on a
+red-yellow-green scale centred on zero, and every variation that did not pass is also marked with a cross - so
 the map shows how close the passing region is to failing, not just where the
 boundary is. A random sweep's ``sample`` number is not an axis.
 
@@ -47,11 +49,14 @@ def _number(value: Any) -> float:
 
 
 def _colours(report: SweepReport) -> tuple[list[Any], Any, Any]:
-    """Per row colour; and (norm, cmap) when the colours are margins, else (None, None)."""
+    """Per row colour; and (norm, cmap) when the colours are objectives, else (None, None). The objective is
+    the search's (:meth:`~.report.SweepReport.objectives`: the margins scaled, criteria without a gradient
+    left out), not the oracle's margin: a collision count is 0 wherever the run passes, and pinned the
+    margin of every passing run at 0 - one pale colour. With no graded criterion, the verdict's colours."""
     import matplotlib
     from matplotlib.colors import TwoSlopeNorm
 
-    margins = [r.get("margin") for r in report.rows]
+    margins = report.objectives()
     if not any(m is not None for m in margins):
         return [VERDICT_COLOURS.get(r["verdict"], VERDICT_COLOURS["error"]) for r in report.rows], None, None
     finite = [m for m in margins if m is not None and math.isfinite(m)]  # an infinite margin takes its end's colour
@@ -187,7 +192,7 @@ def map_figure(report: SweepReport) -> "Figure":
 
         bar = figure.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, fraction=0.05, pad=0.02)
         bar.set_ticks(_bar_ticks(norm.vmin, norm.vmax))  # each side of 0 has its own scale: ticks on both
-        bar.set_label("margin (robustness; < 0 failed)", fontsize=8)
+        bar.set_label("objective (margins scaled, as falsify's; < 0 failed)", fontsize=8)
         handles = [Patch(facecolor="white", edgecolor="black", label=f"{_MARKS[v]} {v}") for v in ("fail", "timeout", "error")
                    if v in report.counts]  # fmt: skip
     else:

@@ -21,6 +21,7 @@ from typing import Any, Mapping, Sequence
 from ..errors import plural
 from ..run.report import margin_text
 from ..load.variations import Value
+from .objective import objectives
 
 __all__ = ["SweepReport", "VERDICTS", "worst_first"]
 
@@ -76,6 +77,14 @@ class SweepReport:
     defaults: dict[str, Value]
     varied: tuple[str, ...]
     rows: list[dict[str, Any]] = field(default_factory=list)
+    groups: dict[str, tuple[str, list[str]]] = field(default_factory=dict)
+    """The oracle's groups (:func:`~.objective.document_groups`): what :meth:`objectives` combines."""
+
+    def objectives(self) -> list[float | None]:
+        """Each row's objective (:func:`~.objective.objectives`: the margins scaled and combined as a
+        ``falsify`` search does, criteria without a gradient left out); all None when no criterion grades
+        how close a passing run came (the verdict is all there is)."""
+        return objectives(self.rows, self.groups)
 
     @property
     def counts(self) -> dict[str, int]:
@@ -113,15 +122,21 @@ class SweepReport:
             lines.append("")
             lines.append("worst variations:" if len(bad) <= shown else f"worst {shown} of {len(bad)} variations that did not pass:")
             chosen = bad[:shown]
-        else:
-            close = [r for r in worst_first(self.rows) if r.get("margin") is not None][:min(shown, 3)]
-            chosen = close
-            if close:
+        else:  # the passing rows with the lowest objective (the search's quantity), not the oracle's margin:
+            # a criterion without a gradient (a collision count) pins that at 0 on every passing run
+            scores = self.objectives()
+            ranked = sorted((x, r["index"], k) for k, (x, r) in enumerate(zip(scores, self.rows)) if x is not None)
+            chosen = [self.rows[k] for _, _, k in ranked[: min(shown, 3)]]
+            if chosen:
                 lines.append("")
-                lines.append("closest to failing:")
+                lines.append("closest to failing (lowest objective, as falsify's):")
+            score = {id(self.rows[k]): x for x, _, k in ranked}
         width = max([len(r["label"]) for r in chosen] + [0])
         for r in chosen:
-            margin = f" (margin {r['margin']:.6g})" if r.get("margin") is not None else ""  # rounded as in the run's messages
+            margin = f"margin {r['margin']:.6g}" if r.get("margin") is not None else ""  # rounded as in the run's messages
+            if not bad:
+                margin = f"objective {score[id(r)]:.4g}" + (", " + margin if margin else "")
+            margin = f" ({margin})" if margin else ""
             lines.append(f"  {r['label'].ljust(width)}  {r['verdict'].upper():7s} {r['message']}{margin}".rstrip())
         return "\n".join(lines) + "\n"
 

@@ -22,6 +22,7 @@ from ..contracts.system import SystemSpec
 from ..load.template import Sweep, Variation
 from .jobs import ChunkOutcome, RunOptions, VariationOutcome, chunk_size, job_chunk
 from .report import SweepReport
+from .objective import document_groups
 
 __all__ = ["run_variations", "resolved_system", "needed_files", "ship", "file_name", "sweep_report"]
 
@@ -81,7 +82,7 @@ def ship(executor: Any, options: RunOptions, systems: Sequence[SystemSpec | None
 
 def sweep_report(sweep: Sweep, variations: Sequence[Variation], outcomes: Sequence[Outcome]) -> SweepReport:
     """The report from the runs' outcomes (both in the sweep's order)."""
-    report = SweepReport(sweep.name, sweep.source, dict(sweep.defaults), sweep.varied)
+    report = SweepReport(sweep.name, sweep.source, dict(sweep.defaults), sweep.varied, groups=document_groups(sweep.template))
     for variation, outcome in zip(variations, outcomes):
         if isinstance(outcome, VariationOutcome):
             row = dict(outcome.row)

@@ -1301,3 +1301,35 @@ def test_a_hidden_box_region_gets_its_first_counterexample_within_003_of_its_nea
         assert space.distance(unit, nearest) <= 0.03, (seed, first["parameters"], space.values(nearest))
         assert first["distance"] == pytest.approx(space.distance(unit, n))
         assert first["distance"] >= space.distance(nearest, n) - 1e-9
+
+
+def test_past_ten_parameters_a_quadratic_that_fails_its_check_sits_out_batches(monkeypatch: Any) -> None:
+    """Past 10 parameters the quadratic model has no cross terms, and one that does not rank its runs is
+    fitted again after 1, 2, 4, then 8 batches - not every batch (its fit was most of the search's own
+    cost at 20 parameters); on a bowl it passes, and is fitted on."""
+    from btgen_pytrees.falsify import Search, Settings, sampler
+    from btgen_pytrees.falsify.space import Dimension, Space
+
+    space = Space(tuple(Dimension(f"p{i}", "range", 0.0, 1.0, 0.001) for i in range(12)))
+    calls: list[bool] = []
+    fit = sampler.quadratic_minimum
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        point = fit(*args, **kwargs)
+        calls.append(point is not None)
+        return point
+
+    monkeypatch.setattr(sampler, "quadratic_minimum", counted)
+
+    def searched(margin: Any) -> int:
+        calls.clear()
+        def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+            return [{"verdict": "pass", "margins": {"F1": margin([p[f"p{i}"] for i in range(12)])}} for p in points]
+        search = Search(space, {}, Settings(budget=160, seed=0), evaluate, {"others": ("&&", ["F1"])}).run()
+        return sum(r.phase == "search" for r in search.runs)
+
+    ripples = searched(lambda x: 1.0 + sum(math.sin(17 * u) for u in x))  # no parabola ranks these runs
+    assert sum(calls) < len(calls) / 2 and len(calls) < ripples / 2, (sum(calls), len(calls), ripples)
+    passed = sum(calls)
+    searched(lambda x: 0.1 + sum((u - 0.4) ** 2 for u in x))
+    assert sum(calls) > max(20, 3 * passed)  # a bowl: the check passes, the model is fitted again and again

@@ -142,6 +142,7 @@ class Sampler:
         self._lowest = math.inf  # the lowest objective told since the last restart, and the runs told since
         self._since = 0
         self._filling = 0  # space-filling points left in this batch (a stalled model's share)
+        self._skip = self._skip_left = 0  # batches the quadratic sits out after a failed check (past 10 parameters)
         self._turn = 0
         self._asked: list[tuple[str, Any, list[float]]] = []
         self._names = [d.name for d in space.dimensions]
@@ -403,14 +404,22 @@ class Sampler:
         runs: the ``gp`` method's model chooses instead); the first point of each batch."""
         d = len(self.space.continuous)
         full = (d + 1) * (d + 2) // 2
-        most = 3 * (full if full <= FULL_TERMS else 2 * d + 1)  # the most runs the quadratic is fitted to
+        large = full > FULL_TERMS
+        if check and large and self._skip_left > 0:  # a model that failed its check lately: not every batch
+            self._skip_left -= 1
+            return None
+        most = 3 * (full if not large else 2 * d + 1)  # the most runs the quadratic is fitted to
         told = []
         for y, i in self._ranked:  # the best runs first: the walk stops at the most the model takes
             if not self.avoid(i):
                 told.append((self._unit[i], y))
                 if len(told) == most:
                     break
-        return quadratic_minimum(told, d, self._draws, check=check)
+        point = quadratic_minimum(told, d, self._draws, check=check)
+        if check and large and len(told) >= 2 * d + 3:  # fitted, past 10 parameters: a failed check is tried
+            self._skip = 0 if point is not None else min(8, max(1, 2 * self._skip))  # again after 1, 2, 4, then 8 batches
+            self._skip_left = self._skip
+        return point
 
     def _rank(self) -> None:
         self._ranked = sorted((y, i) for i, y in enumerate(self.ys) if y is not None)

@@ -517,3 +517,24 @@ def test_falsify_finds_a_late_response_within_50_runs(tmp_path):
     assert failing["parameters"]["delay"] > 1.3 and failing["margins"]["Response"] == failing["margin"] < 0
     assert all(r["margin"] == r["margins"]["Response"] for r in data["runs"])
     assert all((r["verdict"] == "pass") == (r["margin"] > 0) for r in data["runs"])
+
+
+def test_views_carry_temporal_criteria(tmp_path):
+    """JUnit properties (margin and decided), the replay page (the sub-formulas' robustness as series),
+    --plot (the window and the atoms' bounds), and a sweep row's decided."""
+    from btgen_pytrees.cli import main
+    from btgen_pytrees.sweep.jobs import row_of
+
+    path = tmp_path / "t.json"
+    path.write_text(json.dumps(case([{"id": "T", "type": "temporal", "from": 0.5, "expect": "always[0, 1](x <= 3)"}])))
+    assert main(["run", str(path), "--junit", str(tmp_path / "j.xml"), "--replay", str(tmp_path / "r.html"),
+                 "--plot", str(tmp_path / "p.svg")]) == 1  # fmt: skip  (x passes 3 at 1.2 s)
+    junit = (tmp_path / "j.xml").read_text()
+    assert '<property name="margin" value="-0.75" />' in junit and '<property name="decided" value="1.3" />' in junit
+    page = (tmp_path / "r.html").read_text()
+    assert "T robustness: always[0, 1](x \\u003c= 3)" in page
+    svg = (tmp_path / "p.svg").read_text()
+    assert "T: x &lt;= 3" in svg  # the atom's bound, as record criteria's are drawn
+    report = run(load(json.loads(path.read_text())))
+    assert row_of(report)["oracles"][0]["decided"] == pytest.approx(1.3)
+    assert [source for source, _ in report.oracles[0].terms] == ["always[0, 1](x <= 3)", "x <= 3"]

@@ -69,6 +69,12 @@ class Temporal(Oracle):
             f"the run ended before its horizon ({self.horizon_text(ticks_of_anchor(self.criterion))})"
             if span != float("inf") else "the run ended before the execute subtree finished")
 
+    def terms(self) -> list[tuple[str, list[float]]]:
+        """The formula and its sub-formulas with their robustness on each tick so far (at most 8, outermost
+        first): what the replay page draws."""
+        nodes = self.monitor.nodes[::-1]
+        return [(n.formula.source, n.values) for n in nodes[:8]]  # (a re-run makes new lists: no copy)
+
     def horizon_text(self, anchor: int) -> str:
         span = self.monitor.root.span
         if span == float("inf"):

@@ -34,6 +34,7 @@ from py_trees.common import Status
 
 from ..leaves.control import Controlled
 from ..leaves.oracles import Outcome, Record
+from ..leaves.temporal import Temporal
 from ..leaves.wiring import RunStart
 from ..contracts.system import SystemFailure
 from .explain import explain, status_tree
@@ -371,7 +372,8 @@ class Collector(py_trees.visitors.VisitorBase):
                 criterion.id, criterion.type, criterion.expect.source, outcome.verdict, outcome.at,
                 outcome.message, dict(outcome.values), list(getattr(node, "samples", [])),
                 name=criterion.name, group=group, relation=self.case.relation.get(group, "&&"),
-                margin=_margin(getattr(outcome, "margin", None)), decided=getattr(outcome, "decided", None))))  # fmt: skip
+                margin=_margin(getattr(outcome, "margin", None)), decided=getattr(outcome, "decided", None),
+                terms=node.terms() if isinstance(node, Temporal) else [])))  # fmt: skip
         oracles.sort(key=lambda pair: pair[0])
         if verdict == "fail" and not message:
             message = _why_failed(execute, [o for _, o in oracles])

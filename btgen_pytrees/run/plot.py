@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 from ..errors import plural, printable, shorten, xml_safe
 from ..expressions import bounds
+from ..formulas import formula_bounds
 from ..model import TestCase
 from ..writing import write_file
 from .export import ordered_signals, select
@@ -153,6 +154,11 @@ def _criterion_span(kind: str, criterion: Any, at: float | None, verdict: str, d
         start = criterion.start or 0.0
         end = criterion.end if criterion.end is not None else (at if verdict == "pass" and at is not None else duration)
         return start, end
+    if kind == "temporal":  # the horizon's window: the anchor to the horizon
+        span = criterion.expect.span
+        if verdict in ("pass", "fail") and at is not None and math.isfinite(span):
+            return max(0.0, at - span), at
+        return (criterion.start or 0.0) if criterion.anchor is None else None, duration
     return 0.0, duration
 
 
@@ -477,7 +483,11 @@ def _draw_bounds(ax: Axes, names: list[str], report: Report, case: TestCase) -> 
     for criterion in case.criteria:
         oracle = verdicts.get(criterion.id)
         failed = oracle is not None and oracle.verdict == "fail" and oracle.at is not None
-        for signal, op, bound in bounds(criterion.expect):
+        if criterion.type == "temporal" and oracle is not None:  # the window the formula was judged over
+            start, end = _criterion_span("temporal", criterion, oracle.at, oracle.verdict, report.duration)
+            if start is not None and end is not None and end > start:
+                ax.axvspan(start, end, color=COLOURS["fail"] if failed else "#555555", alpha=0.06, label="_window")
+        for signal, op, bound in (formula_bounds(criterion.expect) if criterion.type == "temporal" else bounds(criterion.expect)):
             if signal not in names or not math.isfinite(bound):
                 continue
             colour = COLOURS["fail"] if failed else "#555555"

@@ -129,6 +129,10 @@ def _page_data(report: Report, root: py_trees.behaviour.Behaviour, depth: int | 
         "openNodes": open_nodes,
         "scene": scene.to_data() if scene is not None else None,
     }
+    for o in report.oracles:  # a temporal criterion's sub-formulas' robustness, drawn as series of their own
+        for source, values in o.terms if trace is not None else ():
+            changes = [[k, _value(v)] for k, v in enumerate(values) if k == 0 or v != values[k - 1]]
+            data["signals"][f"{o.id} robustness: {source}"] = changes
     return data
 
 

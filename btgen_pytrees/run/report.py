@@ -85,6 +85,8 @@ class OracleResult:
     margin: float | None = None
     decided: float | None = None
     """A temporal criterion's: the run time of the tick after which its verdict was certain (JSON: temporal only)."""
+    terms: list[tuple[str, list[float]]] = field(default_factory=list, repr=False)
+    """A temporal criterion's sub-formulas and their robustness on each tick (the replay page draws them; not in JSON)."""
 
     @property
     def label(self) -> str:
@@ -200,6 +202,7 @@ class Report:
         del data["trace"]
         for oracle in data["oracles"]:
             del oracle["samples"]
+            del oracle["terms"]
             oracle["values"] = {k: _json_value(v) for k, v in oracle["values"].items()}
             oracle["margin"] = _json_value(oracle["margin"])
             if oracle["type"] != "temporal":

@@ -85,6 +85,8 @@ def row_of(report: Any) -> dict[str, Any]:
     oracles = []
     for o in report.oracles:
         oracles.append({"id": o.id, "verdict": o.verdict, "margin": margin_of(o), "at": o.at, "message": o.message})
+        if o.type == "temporal":
+            oracles[-1]["decided"] = o.decided
     failed = next((e for e in report.execute if e.status == "failure"), None)
     details = [f"{o.id}: {o.message}" for o in report.oracles if o.verdict == "fail" and o.message and report.decisive(o)]
     if failed is not None:

@@ -430,6 +430,7 @@ def test_run_ending_before_the_horizon_is_inconclusive():
     report = run(load(data))
     assert report.verdict == "timeout" and report.oracles[0].verdict == "inconclusive"
     assert report.oracles[0].margin is None
+    assert "T (temporal: always[0, 5](x <= 10)) its horizon (5 s past its anchor) had not passed" in "\n".join(report.explanation)
 
 
 def test_always_without_window_reads_to_the_end_of_the_execute_subtree():

@@ -206,4 +206,8 @@ def _awaits(criterion: Any) -> str:
         if criterion.end is not None:
             return f"window [{start:g}, {criterion.end:g}] s had not closed"
         return f"window from {start:g} s closes when the execute subtree finishes"
+    if criterion.type == "temporal":
+        span = criterion.expect.span
+        reach = "to the end of the run" if span == float("inf") else f"{span:g} s past its anchor"
+        return f"its horizon ({reach}) had not passed"
     return "undecided"

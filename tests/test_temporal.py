@@ -350,7 +350,7 @@ def test_loader_words_at_the_criterion_pointer():
         {"id": "R1", "type": "record", "expect": "x > 0", "from": 1},
     ]))
     assert shape["/oracle/criteria/0/to"] == "'to' is only allowed on period criteria"
-    assert "expected seconds (a period's window starts at a time" in shape["/oracle/criteria/1/from"]
+    assert shape["/oracle/criteria/1/from"] == "'Up.start' is not of type 'number': expected period only: window start (default 0)."
     assert shape["/oracle/criteria/2/from"] == "'from' is only allowed on period and temporal criteria"
 
 

@@ -621,3 +621,18 @@ def test_every_corpus_scenario_runs_on_sumo_to_a_verdict(capsys):
     rows = [line for line in out.splitlines() if "alks_scenario_" in line.split(" ")[0]]
     assert len(rows) == 15 and code in (0, 1), out
     assert all(line.split()[1] in ("ok", "FAIL") for line in rows), out  # never error, invalid or an internal error
+
+
+def test_an_event_runs_up_to_its_maximum_execution_count(tmp_path):
+    body = BRAKE.replace('<Event name="Brake" priority="override">', '<Event name="Brake" priority="override" maximumExecutionCount="3">')
+    doc = read_openscenario(write(tmp_path, scenario(body, PARAMS, STOP)))
+    markers = [e for e in doc["execute"] if e["name"].startswith("Event Brake")]
+    assert [m["name"] for m in markers] == ["Event Brake (1 of 3)", "Event Brake (2 of 3)", "Event Brake (3 of 3)"]
+    actions = [e for e in doc["execute"] if e["name"] == "Action BrakeAction"]
+    assert [a["after"] for a in actions] == [[m["id"]] for m in markers]
+    assert [m["after"] for m in markers] == [["M"], [actions[0]["id"]], [actions[1]["id"]]]  # each after the one before
+    assert all(m["when"] == markers[0]["when"] and m["edge"] == "rising" for m in markers)  # the trigger again
+    complete = next(e for e in doc["execute"] if e["id"].endswith("-complete") and e["params"]["signal"].startswith("state_event"))
+    assert set(a["id"] for a in actions) <= set(complete["after"]) and complete["join"] == "all"
+    too_many = BRAKE.replace('<Event name="Brake" priority="override">', '<Event name="Brake" priority="override" maximumExecutionCount="101">')
+    assert problems(write(tmp_path, scenario(too_many, PARAMS)))[0].endswith("maximumExecutionCount 101 must be between 1 and 100")

@@ -16,8 +16,9 @@ elements (7.6.1: standby, running, complete; start/end/stop transitions):
 * **Event priority** (7.6.4): ``override`` (1.0's ``overwrite``) stops the other events of the
   maneuver that are running (the entry's ``stops``); ``parallel`` runs beside them; ``skip`` waits
   until no other event of the maneuver runs (documented: the standard skips it instead).
-* **maximumExecutionCount**: 1 (the default) is the entry running once; a larger count is refused
-  (docs/openscenario.md: not done).
+* **maximumExecutionCount** of an Event: N copies of its entries, each after the one before has
+  completed, each waiting for the StartTrigger again (an event counts as complete after its N
+  executions). A ManeuverGroup's larger than 1 is refused.
 * **The Storyboard's StopTrigger** (7.6.2) is the case's top-level ``stop``: the run ends when it fires.
 """
 
@@ -34,11 +35,13 @@ from .conditions import Condition, ConditionWriter
 from .parameters import Scope
 from .xmltree import Node, XmlProblem
 
-__all__ = ["Timeline", "ELEMENT_TYPES", "STATES", "identifier"]
+__all__ = ["Timeline", "ELEMENT_TYPES", "STATES", "identifier", "MAX_EXECUTIONS"]
 
 ELEMENT_TYPES = ("story", "act", "maneuverGroup", "maneuver", "event", "action")
 STATES = ("startTransition", "endTransition", "stopTransition", "skipTransition", "completeState", "runningState",
           "standbyState")  # fmt: skip
+MAX_EXECUTIONS = 100
+"""Largest ``maximumExecutionCount`` of an Event (each execution is a copy of its entries)."""
 _SUPPORTED_STATES = {"startTransition": ">= 1", "runningState": "== 1", "endTransition": "== 2", "completeState": "== 2"}
 
 _BAD = re.compile(r"[^A-Za-z0-9_-]")
@@ -347,45 +350,59 @@ class Timeline:
         self._rescope(before)
 
     def event(self, node: Node, maneuver: Element, actors: list[str]) -> Element:
+        """An Event, its actions, once per execution: ``maximumExecutionCount`` N gives N copies, each
+        after the one before has completed, each waiting for the StartTrigger again (7.6.4)."""
         name = self.scope.text(node, "name") or "event"
         count = self.scope.integer(node, "maximumExecutionCount", 1)
-        if count != 1:
-            raise XmlProblem(node, f"maximumExecutionCount {count} is not supported (1 is)")
+        if not 1 <= count <= MAX_EXECUTIONS:
+            raise XmlProblem(node, f"maximumExecutionCount {count} must be between 1 and {MAX_EXECUTIONS}")
         event = Element("event", name, "", node, maneuver)
         maneuver.children.append(event)
-        e = self.marker("Event", name, [maneuver.id])
-        e.update(self.trigger(node.child("StartTrigger"), [maneuver.id], e["id"]))
-        event.id = e["id"]
         self.elements.append(event)
         self.events.append(event)
-        for action in node.all("Action"):
-            aname = self.scope.text(action, "name") or "action"
-            element = Element("action", aname, "", action, event)
-            event.children.append(element)
-            body = action.only()
-            if body.tag == "PrivateAction":
-                if not actors:
-                    raise XmlProblem(body, "a private action needs an actor: the ManeuverGroup's Actors name none")
-                for actor in actors:
-                    kind, params = self.actions.private(body, actor)
-                    label = f"Action {aname}" + (f" ({actor})" if len(actors) > 1 else "")
-                    a = self.lowered(body, actor, kind, params, aname if len(actors) == 1 else f"{aname}-{actor}", label, [e["id"]])
+        elements: dict[int, Element] = {}
+        after, join = [maneuver.id], None
+        for run in range(count):
+            label = name if count == 1 else f"{name} ({run + 1} of {count})"
+            e = self.marker("Event", label, after, join=join)
+            e.update(self.trigger(node.child("StartTrigger"), after, e["id"]))
+            if run == 0:
+                event.id = e["id"]
+            these: list[str] = []
+            for k, action in enumerate(node.all("Action")):
+                aname = self.scope.text(action, "name") or "action"
+                if k not in elements:
+                    elements[k] = Element("action", aname, "", action, event)
+                    event.children.append(elements[k])
+                element = elements[k]
+                body = action.only()
+                if body.tag == "PrivateAction":
+                    if not actors:
+                        raise XmlProblem(body, "a private action needs an actor: the ManeuverGroup's Actors name none")
+                    for actor in actors:
+                        kind, params = self.actions.private(body, actor)
+                        text = f"Action {aname}" + (f" ({actor})" if len(actors) > 1 else "")
+                        a = self.lowered(body, actor, kind, params, aname if len(actors) == 1 else f"{aname}-{actor}", text, [e["id"]])
+                        element.actions.append(a["id"])
+                        these.append(a["id"])
+                elif body.tag == "GlobalAction":
+                    inner = body.only()
+                    if inner.tag in ("VariableAction", "ParameterAction"):
+                        kind, params = self.actions.variable_action(inner)
+                    else:
+                        raise XmlProblem(inner, f"{inner.tag} is not supported (VariableAction, ParameterAction are)")
+                    a = self.entry(aname, f"Action {aname}", "behavior", kind, params, [e["id"]])
                     element.actions.append(a["id"])
-            elif body.tag == "GlobalAction":
-                inner = body.only()
-                if inner.tag in ("VariableAction", "ParameterAction"):
-                    kind, params = self.actions.variable_action(inner)
+                    these.append(a["id"])
                 else:
-                    raise XmlProblem(inner, f"{inner.tag} is not supported (VariableAction, ParameterAction are)")
-                a = self.entry(aname, f"Action {aname}", "behavior", kind, params, [e["id"]])
-                element.actions.append(a["id"])
-            else:
-                raise XmlProblem(body, f"{body.tag} is not supported (PrivateAction, GlobalAction are)")
+                    raise XmlProblem(body, f"{body.tag} is not supported (PrivateAction, GlobalAction are)")
+            if not these:
+                raise XmlProblem(node, "an Event needs at least one Action")
+            after, join = these, "all" if len(these) > 1 else None
+        for element in elements.values():
             element.id = element.actions[0]
             event.actions.extend(element.actions)
             self.elements.append(element)
-        if not event.actions:
-            raise XmlProblem(node, "an Event needs at least one Action")
         return event
 
     # -- states ----------------------------------------------------------------------------------

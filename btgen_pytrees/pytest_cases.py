@@ -177,8 +177,8 @@ def _matches(pattern: str, path: Path) -> bool:
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
-    if file_path.suffix.lower() not in (".json", ".xosc"):  # an OpenSCENARIO file is a case too (docs/openscenario.md)
-        return None
+    if file_path.suffix.lower() not in (".json", ".xosc") or file_path.name.endswith(".oracle.json"):
+        return None  # an OpenSCENARIO file is a case too, its sidecar oracle file is not (docs/openscenario.md)
     config = parent.config
     if not (config.getoption("btgen_files") or config.getini("btgen_files")):
         return None  # registered for the fixture only

@@ -72,6 +72,7 @@ class Element:
     children: list["Element"] = field(default_factory=list)
     actions: list[str] = field(default_factory=list)  # entry ids of an action element / an event's actions
     state: str | None = None  # the state signal, when one is needed
+    markers: list[str] = field(default_factory=list)  # an event's entry per execution
 
 
 class Timeline:
@@ -341,12 +342,12 @@ class Timeline:
         for element, ev in events:
             priority = self.scope.choice(ev, "priority", ("override", "overwrite", "skip", "parallel"), "parallel")
             others = [o for o, _ in events if o is not element]
-            marker = next(x for x in self.entries if x["id"] == element.id)
-            if priority in ("override", "overwrite") and others:
-                marker["stops"] = [a for o in others for a in o.actions]
-            elif priority == "skip" and others:
-                quiet = " && ".join(f"{self.state_of(o)} != 1" for o in others)
-                marker["when"] = f"({marker['when']}) && {quiet}" if "when" in marker else quiet
+            for marker in (x for x in self.entries if x["id"] in element.markers):  # every execution's
+                if priority in ("override", "overwrite") and others:
+                    marker["stops"] = [a for o in others for a in o.actions]
+                elif priority == "skip" and others:
+                    quiet = " && ".join(f"{self.state_of(o)} != 1" for o in others)
+                    marker["when"] = f"({marker['when']}) && {quiet}" if "when" in marker else quiet
         self._rescope(before)
 
     def event(self, node: Node, maneuver: Element, actors: list[str]) -> Element:
@@ -368,6 +369,7 @@ class Timeline:
             e.update(self.trigger(node.child("StartTrigger"), after, e["id"]))
             if run == 0:
                 event.id = e["id"]
+            event.markers.append(e["id"])
             these: list[str] = []
             for k, action in enumerate(node.all("Action")):
                 aname = self.scope.text(action, "name") or "action"

@@ -489,6 +489,8 @@ def test_a_distribution_is_a_sweep_for_validate_and_expand(tmp_path, capsys):
     assert len(written) == 2
     doc = json.loads((out / written[0]).read_text())
     assert next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]["rate"] == 3
+    assert doc["system"]["road"] == "../road.xodr"  # relative to the case, where it now is
+    assert main(["validate", *(str(out / name) for name in written)]) == 0
 
 
 @needs_sumo

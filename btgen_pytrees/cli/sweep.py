@@ -101,16 +101,21 @@ def cmd_expand(args: argparse.Namespace) -> int:
 
 
 def moved(document: dict[str, Any], source: str, out_dir: str) -> dict[str, Any]:
-    """*document* (from the file *source*) as a file in *out_dir*: its system's ``config`` is relative to the case
-    file, so it is rewritten relative to *out_dir* (absolute when no relative path leads there, e.g. another drive)."""
+    """*document* (from the file *source*) as a file in *out_dir*: its system's ``config`` (and ``road``) is relative
+    to the case file, so it is rewritten relative to *out_dir* (absolute when no relative path leads there, e.g.
+    another drive)."""
     spec = system_spec(document, source)
-    if spec is None or spec.config is None:
+    if spec is None or (spec.config is None and spec.road is None):
         return document
-    try:
-        config = os.path.relpath(spec.config, os.path.abspath(out_dir))
-    except ValueError:
-        config = spec.config
-    return {**document, "system": {**document["system"], "config": config}}
+    system = dict(document["system"])
+    for key, path in (("config", spec.config), ("road", spec.road)):  # an OpenDRIVE road is relative to the case too
+        if path is None:
+            continue
+        try:
+            system[key] = os.path.relpath(path, os.path.abspath(out_dir))
+        except ValueError:
+            system[key] = path
+    return {**document, "system": system}
 
 
 def make_executor(args: argparse.Namespace,

@@ -551,3 +551,47 @@ def test_a_cache_directory_that_cannot_be_written_is_exit_2_saying_so(tmp_path: 
     assert main(["validate", str(case)]) == 2
     err = capsys.readouterr().err
     assert "case.json: /system/road: road.xodr: cannot write the cache directory" in err and "set BTGEN_CACHE" in err, err
+
+
+TWO_ROADS = """<?xml version="1.0"?>
+<OpenDRIVE><header revMajor="1" revMinor="6"/>
+ <road id="1" length="100" junction="-1">
+  <link><successor elementType="road" elementId="2" contactPoint="start"/></link>
+  <planView><geometry s="0" x="0" y="0" hdg="0" length="100"><line/></geometry></planView>
+  <lanes><laneSection s="0">
+   <left><lane id="1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/><link><successor id="1"/></link></lane></left>
+   <center><lane id="0" type="none"/></center>
+   <right><lane id="-1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/><link><successor id="-1"/></link></lane></right>
+  </laneSection><laneSection s="50">
+   <left><lane id="1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/></lane></left>
+   <center><lane id="0" type="none"/></center>
+   <right><lane id="-1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/></lane>
+          <lane id="-2" type="driving"><width sOffset="0" a="0" b="0.07" c="0" d="0"/></lane></right>
+  </laneSection></lanes>
+ </road>
+ <road id="2" length="200" junction="-1">
+  <link><predecessor elementType="road" elementId="1" contactPoint="end"/></link>
+  <planView><geometry s="0" x="100" y="0" hdg="0" length="200"><arc curvature="0.005"/></geometry></planView>
+  <lanes><laneSection s="0">
+   <left><lane id="1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/><link><predecessor id="1"/></link></lane></left>
+   <center><lane id="0" type="none"/></center>
+   <right><lane id="-1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/><link><predecessor id="-1"/></link></lane></right>
+  </laneSection></lanes>
+ </road>
+</OpenDRIVE>
+"""
+
+
+def test_an_entity_drives_on_across_lane_sections_and_roads_with_its_road_coordinates(tmp_path: pathlib.Path) -> None:
+    # road 1: 100 m straight, a lane -2 widening from its second lane section on; road 2 its successor, an arc
+    (tmp_path / "road.xodr").write_text(TWO_ROADS)
+    entities = {"Ego": entity({"LanePosition": {"roadId": "1", "laneId": -1, "s": 10}}, 20.0)}
+    execute = [{"id": "W", "kind": "constraint", "action": "until", "params": {"expect": "Ego.road == 2 && Ego.s >= 100", "timeout": 12}}]
+    case = write_case(tmp_path, "road.xodr", entities, timeout=12, execute=execute, expect="Ego.lane_id == -1 && abs(Ego.offset) < 0.05")
+    report, signals, read = ticks(case, lambda ls: ls.vehicle.getRoadID("Ego"))
+    assert report.verdict == "pass", report.message
+    roads_seen = [s["Ego.road"] for s in signals]
+    assert roads_seen[0] == 1 and roads_seen[-1] == 2 and sorted(set(roads_seen)) == [1, 2]
+    assert len({r for r in read if not r.startswith(":")}) >= 3  # SUMO's edges: two sections of road 1, road 2
+    # 90 m to road 1's end, then 100 m of road 2's reference line (its lane -1 is 1.75 m outside the arc's: longer)
+    assert report.execute[0].end == pytest.approx((90 + 100 * (1 + 0.005 * 1.75)) / 20, abs=0.1)

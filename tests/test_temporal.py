@@ -539,3 +539,18 @@ def test_views_carry_temporal_criteria(tmp_path):
     report = run(load(json.loads(path.read_text())))
     assert row_of(report)["oracles"][0]["decided"] == pytest.approx(1.3)
     assert [source for source, _ in report.oracles[0].terms] == ["always[0, 1](x <= 3)", "x <= 3"]
+
+
+def test_a_sweeps_verdict_map_and_rows_carry_the_temporal_margin(tmp_path):
+    from btgen_pytrees.cli import main
+
+    data = json.loads((EXAMPLES / "response_falsify.json").read_text())
+    data["variations"] = {"delay": {"from": 1, "to": 2, "step": 1}, "decel": {"from": 2, "to": 4, "step": 2}}
+    path = tmp_path / "sweep.json"
+    path.write_text(json.dumps(data))
+    assert main(["run", str(path), "--jobs", "1", "--json", str(tmp_path / "s.json"), "--plot", str(tmp_path / "map.svg")]) == 1
+    rows = json.loads((tmp_path / "s.json").read_text())["rows"]
+    by_delay = {r["parameters"]["delay"]: r["oracles"][0] for r in rows}
+    assert by_delay[2]["verdict"] == "fail" and by_delay[2]["margin"] == -1.0 and by_delay[2]["decided"] == pytest.approx(2.5)
+    assert by_delay[1]["verdict"] == "pass" and by_delay[1]["margin"] > 0
+    assert (tmp_path / "map.svg").read_text().startswith("<?xml")

@@ -226,9 +226,9 @@ def test_the_tree_holds_py_trees_decorators() -> None:
     order = [a]
     while order[-1].children:
         order.append(order[-1].children[-1])
-    assert [type(n).__name__ for n in order] == ["Controlled", "Repetitions", "Sequence", "Attempts", "VirtualTimeout",
+    assert [type(n).__name__ for n in order] == ["Controlled", "Repetitions", "Gate", "Attempts", "VirtualTimeout",
                                                  "Hold"]  # fmt: skip
-    assert type(order[2].children[0]) is Gate
+    assert isinstance(Gate, type) and issubclass(Gate, py_trees.decorators.Decorator)
 
 
 def test_plain_cases_build_no_control_nodes() -> None:
@@ -313,14 +313,15 @@ def test_btcpp_export_uses_btcpps_own_decorators_and_the_btlog_records_them() ->
     tree = ET.fromstring(xml)
     repeat = tree.find(".//Repeat")
     assert repeat is not None and repeat.get("num_cycles") == "2"
-    delay = repeat.find("./Sequence/Delay")
+    gate = repeat.find("./Decorator")
+    assert gate is not None and gate.get("ID") == "Gate" and gate.get("when") == "x > 3" and gate.get("edge") == "rising"
+    delay = gate.find("./Delay")
     assert delay is not None and delay.get("delay_msec") == "200"
     retry = delay.find("./RetryUntilSuccessful")
     assert retry is not None and retry.get("num_attempts") == "2"
     timeout = retry.find("./Timeout")
     assert timeout is not None and timeout.get("msec") == "1000"
     assert timeout.find("./Action").get("ID") == "hold"
-    assert repeat.find("./Sequence/Action").get("when") == "x > 3"
     report = run(data)
     log = parse_btlog(btlog_bytes(report.trace, generate(data)))
     uids = {e.get("name"): int(e.get("_uid")) for e in ET.fromstring(log.xml).iter() if e.get("_uid")}

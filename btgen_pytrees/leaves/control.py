@@ -4,8 +4,7 @@ An entry with control keys is built, outermost first, as::
 
     Controlled(entry)                     tagged with the entry: its status is the entry's
       Repetitions(repeat)                 py_trees' Repeat        (repeat > 1)
-        Sequence(memory)                  a trigger before the action  (when / delay)
-          Gate(when, edge, delay)
+        Gate(when, edge, delay)           the trigger: holds the action until due (when / delay)
           Attempts(attempts)              py_trees' Retry         (attempts > 1)
             VirtualTimeout(timeout)       py_trees' Timeout       (timeout)
               leaf                        the entry's action, as without the keys
@@ -31,18 +30,67 @@ import typing
 
 import py_trees
 from py_trees.blackboard import Blackboard
-from py_trees.common import Status
+from py_trees.common import BlackBoxLevel, Status
 
 from ..contracts.environment import Environment
 from ..expressions import Expression, ExpressionError
 from ..model import Control, Entry, StopCondition, state_signal
-from .composites import Sequence, ends_with_itself
-from .node import NODE_TICK, Node
+from .composites import ends_with_itself
+from .node import NODE_TICK, Node, new_id
 from .simulated import reached
 
-__all__ = ["Condition", "Gate", "VirtualTimeout", "Attempts", "Repetitions", "Controlled", "StopGuard", "controlled"]
+__all__ = ["Condition", "Gate", "VirtualTimeout", "Attempts", "Repetitions", "Controlled", "StopGuard", "controlled", "Lean"]
 
 _SUCCESS, _FAILURE, _RUNNING, _INVALID = Status.SUCCESS, Status.FAILURE, Status.RUNNING, Status.INVALID
+
+
+class Lean(Node):
+    """:class:`~btgen_pytrees.leaves.node.Node` whose ``id`` and ``logger`` are made when first read.
+
+    A case may have tens of thousands of entries with control keys, each one to four of these nodes more than
+    its leaf; a node's UUID and py_trees ``Logger`` are two objects of the four that the garbage collector walks
+    at every full collection while the tree is built (they doubled what the control keys cost a 100,000-entry
+    case: docs/performance.md#control-flow). py_trees reads a node's ``id`` when it adds it to a composite and
+    in its views and visitors, and its ``logger`` to print a debug line: each is made then, the same as
+    ``Node`` makes it at once.
+    """
+
+    def __init__(self, name: str):
+        if not isinstance(name, str):
+            raise TypeError(f"a behaviour name should be a string, but you passed in {type(name)}")
+        self._id: typing.Any = None
+        self.name: str = name
+        self._blackboards = None
+        self.qualified_name = f"{self.__class__.__qualname__}/{name}"
+        self.status = _INVALID
+        self._iterator = None
+        self.parent = None
+        self.children: list[py_trees.behaviour.Behaviour] = []
+        self._logger: py_trees.logging.Logger | None = None
+        self.feedback_message = ""
+        self.blackbox_level = BlackBoxLevel.NOT_A_BLACKBOX
+
+    @property  # type: ignore[override]
+    def id(self) -> typing.Any:
+        found = self._id
+        if found is None:
+            found = self._id = new_id()
+        return found
+
+    @id.setter
+    def id(self, value: typing.Any) -> None:
+        self._id = value
+
+    @property  # type: ignore[override]
+    def logger(self) -> py_trees.logging.Logger:
+        found = self._logger
+        if found is None:
+            found = self._logger = py_trees.logging.Logger(self.name)
+        return found
+
+    @logger.setter
+    def logger(self, value: py_trees.logging.Logger) -> None:
+        self._logger = value
 
 
 def _tick(node: py_trees.behaviour.Behaviour) -> typing.Iterator[py_trees.behaviour.Behaviour]:
@@ -116,39 +164,60 @@ class Condition:
         return ", ".join(parts)
 
 
-class Gate(Node):
-    """The trigger node before an entry's action: RUNNING until its :class:`Condition` is due, then SUCCESS.
+class Gate(py_trees.decorators.Decorator, Lean):
+    """The trigger before an entry's action: its child is not ticked until the :class:`Condition` is due (RUNNING
+    until then), then on that very tick and on every one after, passing the child's status through - as
+    BehaviorTree.CPP's ``Delay`` holds its child, with the ``when`` and ``edge`` before the delay. A new start
+    (a repetition) waits again.
 
     Args:
+        child: what starts: the entry's action, with its attempts and timeout
         owner: the entry's :class:`Controlled` (told when the action starts)
         condition: the entry's ``when``, ``edge`` and ``delay``
         env: the tree's environment
     """
 
-    def __init__(self, owner: "Controlled", condition: Condition, env: Environment):
-        super().__init__(name=condition.describe())
+    def __init__(self, child: py_trees.behaviour.Behaviour, owner: "Controlled", condition: Condition, env: Environment):
+        super().__init__(name=condition.describe(), child=child)
         self.owner = owner
         self.condition = condition
         self.env = env
-        keys = [env.signal_key(n) for n in condition.names]
-        self.client = env.attach(self, reads=keys) if keys else None
+        self.open = False  # the condition was due: the child runs
+        self.client = env.attach_shared(self, [env.signal_key(n) for n in condition.names])
 
     def initialise(self) -> None:
         self.condition.reset()
+        self.open = False
         self.feedback_message = "waiting"
 
     def update(self) -> Status:
-        now = self.env.now()
-        if not self.condition.due(self.env, now, self.client):
-            if self.condition.fired is not None:
-                self.feedback_message = f"fired at {self.condition.fired:.6g} s, waiting {self.condition.delay:g} s"
-            return _RUNNING
-        self.feedback_message = "fired" if self.condition.fired == now else f"fired at {self.condition.fired:.6g} s"
-        self.owner.begin(now)
-        return _SUCCESS
+        """(Its :meth:`tick` decides; py_trees' ``Decorator`` asks every decorator for one.)"""
+        return self.decorated.status if self.open else _RUNNING
+
+    @ends_with_itself
+    def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
+        if self.status != _RUNNING:
+            self.initialise()
+        if not self.open:
+            condition, now = self.condition, self.env.now()
+            if condition.due(self.env, now, self.client):
+                self.open = True
+                self.feedback_message = "fired" if condition.fired == now else f"fired at {condition.fired:.6g} s"
+                self.owner.begin(now)
+            elif condition.fired is not None:
+                self.feedback_message = f"fired at {condition.fired:.6g} s, waiting {condition.delay:g} s"
+        if self.open:
+            yield from _tick(self.decorated)
+            new_status = self.decorated.status
+        else:
+            new_status = _RUNNING
+        if new_status != _RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
 
 
-class VirtualTimeout(py_trees.decorators.Timeout, Node):
+class VirtualTimeout(py_trees.decorators.Timeout, Lean):
     """py_trees' ``Timeout`` on the run's clock: an attempt that has not finished ``duration`` seconds after it
     started fails on the first tick with ``now >= start + duration`` (the child is ticked first: one that finishes
     on that tick keeps its status)."""
@@ -175,7 +244,7 @@ class VirtualTimeout(py_trees.decorators.Timeout, Node):
         return status
 
 
-class Attempts(py_trees.decorators.Retry, Node):
+class Attempts(py_trees.decorators.Retry, Lean):
     """py_trees' ``Retry``: a failed attempt starts again, up to ``num_failures`` tries in all - on the tick it
     failed (the child is ticked again in the same tick)."""
 
@@ -205,7 +274,7 @@ class Attempts(py_trees.decorators.Retry, Node):
         yield self
 
 
-class Repetitions(py_trees.decorators.Repeat, Node):
+class Repetitions(py_trees.decorators.Repeat, Lean):
     """py_trees' ``Repeat``: the entry runs ``num_success`` times in a row, a new repetition starting on the tick
     the one before it succeeded (each waits for its ``when``/``delay`` again); the first failure fails it."""
 
@@ -254,7 +323,7 @@ def _message(node: py_trees.behaviour.Behaviour) -> str:
             return found
 
 
-class Controlled(py_trees.decorators.Decorator, Node):
+class Controlled(py_trees.decorators.Decorator, Lean):
     """An entry with control keys: its status is the entry's, and it is what the run's report follows.
 
     It notes when the action first started (:attr:`started`; the entry waits for its ``when`` before),
@@ -277,7 +346,6 @@ class Controlled(py_trees.decorators.Decorator, Node):
         self.env = env
         self.rivals = rivals
         self.stop_key = env.stop_key(entry.id)
-        self.action: py_trees.behaviour.Behaviour = child
         self.starts_itself = True  # no Gate or Repetitions below tells it the action started
         self.reset()
 
@@ -288,10 +356,9 @@ class Controlled(py_trees.decorators.Decorator, Node):
         self.timed_out = False
         self.cut = False
         self.stopped_by: tuple[str, float, str] | None = None  # (who, when, how: "stops" or "race")
-        self.why = ""
-        self.events: list[tuple[float, str, str]] = []
+        self.why = ""  # why it failed, or was stopped; where it was when the run ended around it (progress())
+        self.events: list[tuple[float, str, str]] | None = None  # made by the first event (see note())
         self.since = 0  # the tick number it became active on
-        self.halted = ""  # where it was when the run ended around it (progress())
 
     def initialise(self) -> None:
         self.reset()
@@ -304,24 +371,30 @@ class Controlled(py_trees.decorators.Decorator, Node):
         """The action starts (its first start, or a new repetition's)."""
         if self.started is None:
             self.started = now
-            self.events.append((now, "start", ""))
+            self.note(now, "start", "")
         env = self.env
         for target in self.control.stops:
             env.request_stop(target, self.entry.id, now, "stops")
         if self.control.watched:
             self.publish(running=True)
 
+    def note(self, now: float, event: str, text: str) -> None:
+        """An event for the ``--trace`` (the run's collector takes them after the node's tick)."""
+        if self.events is None:
+            self.events = []  # (most entries never get one before their start: no list per node for nothing)
+        self.events.append((now, event, text))
+
     def retry(self, attempt: int, attempts: int, message: str) -> None:
         self.attempt = attempt
         self.timed_out = False
         now = self.env.now()
-        self.events.append((now, "attempt", f"{attempt} of {attempts}" + (f" after: {message}" if message else "")))
+        self.note(now, "attempt", f"{attempt} of {attempts}" + (f" after: {message}" if message else ""))
 
     def repeated(self, repetition: int, repeat: int) -> None:
         self.repetition = repetition
         self.attempt = 1
         now = self.env.now()
-        self.events.append((now, "repeat", f"repetition {repetition} of {repeat}"))
+        self.note(now, "repeat", f"repetition {repetition} of {repeat}")
         if self.control.watched:
             self.publish(running=False)
 
@@ -371,7 +444,7 @@ class Controlled(py_trees.decorators.Decorator, Node):
     def terminate(self, new_status: Status) -> None:
         """Halted while it ran (the run ended around it): note where it was, before its children are reset."""
         if new_status == _INVALID and self.status == _RUNNING:
-            self.halted = self.progress()
+            self.why = self.progress()
 
     def stopped(self, requests: list[tuple[str, int, float, str]]) -> bool:
         """Whether a stop request applies: written on an earlier tick than this one, on a tick it was running."""
@@ -382,7 +455,7 @@ class Controlled(py_trees.decorators.Decorator, Node):
                 self.stopped_by = (by, when, how)
                 self.why = f"lost the race to {by}" if how == "race" else f"stopped by {by} at {when:g} s"
                 self.feedback_message = self.why
-                self.events.append((self.env.now(), "stopped", self.why))
+                self.note(self.env.now(), "stopped", self.why)
                 return True
         return False
 
@@ -417,13 +490,15 @@ class Controlled(py_trees.decorators.Decorator, Node):
 
     def waiting(self) -> py_trees.behaviour.Behaviour | None:
         """The gate the entry waits at, if it waits at one."""
-        for node in self.decorated.iterate():
-            if isinstance(node, Gate) and node.status == _RUNNING:
-                return node
+        node = self.decorated
+        while isinstance(node, py_trees.decorators.Decorator):
+            if isinstance(node, Gate):
+                return node if node.status == _RUNNING and not node.open else None
+            node = node.decorated
         return None
 
 
-class StopGuard(py_trees.decorators.Decorator, Node):
+class StopGuard(py_trees.decorators.Decorator, Lean):
     """The case's ``stop``: around the execute subtree, checked at the start of every tick, before any entry.
 
     When one of its conditions is due, the execute subtree is halted (running entries are ``stopped``) and this
@@ -489,13 +564,11 @@ def controlled(leaf: py_trees.behaviour.Behaviour, entry: Entry, env: Environmen
         body = Attempts(body, control.attempts, owner)
     gated = control.when is not None or control.delay > 0
     if gated:
-        gate = Gate(owner, Condition(control.when, control.edge, control.delay), env)
-        body = Sequence(f"{entry.id} trigger", memory=True, children=[gate, body])
+        body = Gate(body, owner, Condition(control.when, control.edge, control.delay), env)
     if control.repeat > 1:
         body = Repetitions(body, control.repeat, owner, starts=not gated)
     Controlled.__init__(owner, body, entry, env, rivals)
     owner.starts_itself = not gated and control.repeat == 1
-    owner.action = leaf
     if getattr(leaf, "btgen_entry", None) is entry:
         del leaf.btgen_entry  # type: ignore[attr-defined]
     try:

@@ -203,7 +203,7 @@ def _meaning(data: Mapping[str, Any], rest: Mapping[str, Any], entries: Entries,
     for i, raw in todo:  # entries the loop left to the end: checked and built with words
         after = entries.after(checker, i, raw, execute_ids, set(criteria_ids)) if items is not None else (
             tuple(raw["after"]) if raw.get("after") else ())  # fmt: skip
-        built[i] = entries.entry(checker, i, raw, after, join, execute_ids or None)
+        built[i] = entries.entry(checker, i, raw, after, join)
     criteria = checker.criteria()
     done: list[Entry] = built  # type: ignore[assignment]
     if items is None:

@@ -22,11 +22,11 @@ from dataclasses import replace
 from typing import Any, Iterable, Mapping
 
 from ..errors import PathPart
-from ..expressions import Expression
+from ..expressions import Expression, ExpressionError, parse
 from ..model import EDGES, STATES, Control, Entry, StopCondition
 from .context import Checker
 from .values import SURROGATE
-from .words import suggest
+from .words import shown, suggest
 
 __all__ = ["CONTROL_KEYS", "control_fits", "entry_control", "finish_control"]
 
@@ -77,36 +77,30 @@ def control_fits(raw: Mapping[str, Any]) -> int:
     return found
 
 
-def entry_control(checker: Checker, i: int, raw: Mapping[str, Any], ids: Iterable[str]) -> Control | None:
-    """Entry *i*'s :class:`Control` (``None`` when it has no control key); problems go to *checker*.
-
-    *ids*: every execute entry's id (for ``stops`` and for the states a ``when`` reads).
-    """
+def build_control(raw: Mapping[str, Any]) -> Control | None:
+    """The :class:`Control` of an entry whose control keys have the schema's shape (:func:`control_fits`); ``None``
+    without any. Its ``when`` is parsed (an :class:`~btgen_pytrees.expressions.ExpressionError` if it is no
+    expression); the names it reads and the ids of ``stops`` are checked with the whole document
+    (:func:`finish_control`)."""
     if not any(key in raw for key in CONTROL_KEYS):
         return None
-    path: tuple[PathPart, ...] = ("execute", i)
-    ids = ids if isinstance(ids, (set, frozenset)) else set(ids)
-    when = None
-    if "when" in raw:
-        when = condition(checker, raw["when"], (*path, "when"), ids)
-    stops = tuple(raw.get("stops", ()))
-    seen: set[str] = set()
-    for k, target in enumerate(stops):
-        where = (*path, "stops", k)
-        if target == raw["id"]:
-            checker.add(where, f"{target!r} cannot stop itself", "graph")
-        elif target in seen:
-            checker.add(where, f"{target!r} is listed twice", "graph")
-        elif target not in ids:
-            checker.add(where, f"unknown id {target!r}{suggest(target, ids)}", "graph")
-        seen.add(target)
-    if "edge" in raw and raw["edge"] != "none" and "when" not in raw:
-        checker.add((*path, "edge"), "an edge needs a 'when' to watch", "expression")
+    get = raw.get
+    when = get("when")
+    timeout = get("timeout")
     return Control(
-        when=when, edge=raw.get("edge", "none"), delay=float(raw.get("delay", 0.0)),
-        timeout=float(raw["timeout"]) if "timeout" in raw else None,
-        attempts=int(raw.get("attempts", 1)), repeat=int(raw.get("repeat", 1)), stops=stops, race=raw.get("race"),
+        when=parse(when) if when is not None else None, edge=get("edge", "none"), delay=float(get("delay", 0.0)),
+        timeout=float(timeout) if timeout is not None else None, attempts=int(get("attempts", 1)),
+        repeat=int(get("repeat", 1)), stops=tuple(get("stops", ())), race=get("race"),
     )  # fmt: skip
+
+
+def entry_control(checker: Checker, i: int, raw: Mapping[str, Any]) -> Control | None:
+    """:func:`build_control`, a bad ``when`` a problem at its pointer (the entries read with words)."""
+    try:
+        return build_control(raw)
+    except ExpressionError as exc:
+        checker.add(("execute", i, "when"), f"bad expression {shown(raw['when'])}: {exc}", "expression")
+        return None
 
 
 def condition(checker: Checker, text: str, path: tuple[PathPart, ...], ids: set[str]) -> Expression | None:
@@ -139,6 +133,31 @@ def finish_control(checker: Checker, entries: list[Entry], data: Mapping[str, An
     if not controlled and not raw_stop:
         return entries, ()
     ids = {e.id for e in entries}
+    checked: dict[str, list[tuple[str, str]]] = {}  # a when's text -> its problems (message, cause): each text once
+    for e in controlled:
+        control = e.control
+        if control.when is not None:  # type: ignore[union-attr]
+            source = control.when.source  # type: ignore[union-attr]
+            found = checked.get(source)
+            if found is None:
+                before = len(checker.problems)
+                condition(checker, source, (*e.path, "when"), ids)
+                found = checked[source] = [(p.message, p.cause) for p in checker.problems[before:]]
+                del checker.problems[before:]
+            for message, cause in found:
+                checker.add((*e.path, "when"), message, cause)
+        elif control.edge != "none":  # type: ignore[union-attr]
+            checker.add((*e.path, "edge"), "an edge needs a 'when' to watch", "expression")
+        seen: set[str] = set()
+        for k, target in enumerate(control.stops):  # type: ignore[union-attr]
+            where = (*e.path, "stops", k)
+            if target == e.id:
+                checker.add(where, f"{target!r} cannot stop itself", "graph")
+            elif target in seen:
+                checker.add(where, f"{target!r} is listed twice", "graph")
+            elif target not in ids:
+                checker.add(where, f"unknown id {target!r}{suggest(target, ids)}", "graph")
+            seen.add(target)
     stop = []
     for k, item in enumerate(raw_stop):
         when = condition(checker, item["when"], ("stop", k, "when"), ids)

@@ -37,7 +37,8 @@ from ..contracts.registry import LeafType
 from ..model import DEFAULT_JOIN, EMPTY, Entry
 from ..validator import SchemaValidator
 from .context import Checker, freeze
-from .control import CONTROL_KEYS, control_fits, entry_control
+from .control import CONTROL_KEYS, build_control, control_fits, entry_control
+from ..expressions import ExpressionError
 from .read import NotStreamed
 from .schema import inline_refs, schema
 from .values import SURROGATE, suspicious
@@ -256,7 +257,14 @@ class Entries:
             new_id(id_)
             if count_keys:
                 keys += len(raw) + (len(params) if params else 0)
-            if leaf.later or controlled:  # a system's action, or control keys: they need the whole document
+            control = None
+            if controlled:  # its control keys, built here; their names are checked with the whole document (finish_control)
+                try:
+                    control = build_control(raw)
+                except ExpressionError:
+                    doubt(i, raw)
+                    continue
+            if leaf.later:
                 if params:
                     if count_keys:
                         keys += _nested_keys(params)
@@ -285,7 +293,7 @@ class Entries:
                 frozen = freeze(params)
                 if key is not None:
                     leaf.checked[key] = frozen
-            new_entry(Entry(id_, kind, action, frozen, after, join, name, i, EMPTY))
+            new_entry(Entry(id_, kind, action, frozen, after, join, name, i, EMPTY, control))
         self.keys = keys
 
     def _leaf(self, kind: Any, action: str) -> _Leaf | None:
@@ -375,10 +383,9 @@ class Entries:
                 seen[pred] = None
         return tuple(seen)
 
-    def entry(self, checker: Checker, i: int, raw: Mapping[str, Any], after: tuple[str, ...], join: str,
-              ids: set[str] | None = None) -> Entry:  # fmt: skip
+    def entry(self, checker: Checker, i: int, raw: Mapping[str, Any], after: tuple[str, ...], join: str) -> Entry:
         """Execute entry *i* (*after* already checked): its leaf's params checked, or shared with equal ones; its
-        control keys checked against every execute id (*ids*; default: the ids read in the loop)."""
+        control keys built (their names are checked with every entry's: :func:`~.control.finish_control`)."""
         kind, action, params = raw["kind"], raw["action"], raw.get("params")
         leaf = self.leaves.get((kind, action)) or self._leaf(kind, action)
         key = params_key(params) if leaf is not None else None
@@ -396,7 +403,7 @@ class Entries:
         return Entry(
             id=raw["id"], kind=kind, action=action, params=frozen, after=after,
             join=raw.get("join", join), name=raw.get("name", raw["id"]), index=i,
-            expressions=expressions, control=entry_control(checker, i, raw, ids if ids is not None else self.ids),
+            expressions=expressions, control=entry_control(checker, i, raw),
         )  # fmt: skip
 
 

@@ -154,6 +154,7 @@ class _Export:
         self.uses: list[tuple[ET.Element, _Model]] = []
         self.elements: dict[int, ET.Element] = {}
         self.wrappers: dict[int, tuple[ET.Element, ET.Element, ET.Element]] = {}
+        self.inner: dict[int, ET.Element] = {}  # a node whose children go under an element of its own (a Gate's Delay)
 
     # -- node types -------------------------------------------------------------
 
@@ -212,14 +213,20 @@ class _Export:
             return ET.SubElement(parent, "RetryUntilSuccessful", name=node.name, num_attempts=str(node.num_failures))
         if isinstance(node, VirtualTimeout):
             return ET.SubElement(parent, "Timeout", name=node.name, msec=str(round(node.duration * 1000)))
-        if isinstance(node, Gate):
+        if isinstance(node, Gate):  # BT.CPP's Delay for the delay; the when, before it, is a Gate of ours
             condition = node.condition
-            if condition.when is None:
-                return None
-            ports = [_Port("when", condition.when.source, "the start condition (expression)"),
-                     _Port("edge", condition.edge, "none: holds; rising/falling/any: changes so")]  # fmt: skip
-            return self.custom(parent, "Action", ("wiring", "Gate"), "Gate",
-                               "RUNNING until its condition fires (the delay is the Delay after it)", node.name, ports)  # fmt: skip
+            delay = None
+            if condition.when is not None:
+                ports = [_Port("when", condition.when.source, "the start condition (expression)"),
+                         _Port("edge", condition.edge, "none: holds; rising/falling/any: changes so")]  # fmt: skip
+                element = self.custom(parent, "Decorator", ("wiring", "Gate"), "Gate",
+                                      "holds its child until the condition fires (the entry's trigger)", node.name, ports)  # fmt: skip
+                if condition.delay:
+                    delay = ET.SubElement(element, "Delay", name=f"delay {condition.delay:g} s",
+                                          delay_msec=str(round(condition.delay * 1000)))  # fmt: skip
+                    self.inner[id(node)] = delay
+                return element
+            return ET.SubElement(parent, "Delay", name=node.name, delay_msec=str(round(condition.delay * 1000)))
         if isinstance(node, StopGuard):
             ports = [_Port("when", ";".join(s.when.source for s in node.stops), "the stop conditions, ';'-separated")]
             return self.custom(parent, "Decorator", ("wiring", "StopGuard"), "StopGuard",
@@ -328,18 +335,8 @@ def _walk(root: py_trees.behaviour.Behaviour, top: ET.Element, export: _Export) 
             keep = ET.SubElement(wrapper, "KeepRunningUntilFailure", name=f"{node.name} finished")
             export.wrappers[id(node)] = (wrapper, keep, ET.SubElement(keep, "AlwaysSuccess"))
         if not opaque:
-            children = list(node.children)
-            gate = children[0] if children and isinstance(children[0], Gate) else None
-            if gate is not None and gate.condition.delay:  # Sequence(gate, body): the body under BT.CPP's Delay
-                if gate.condition.when is not None:
-                    export.elements[id(gate)] = export.control(element, gate)  # type: ignore[assignment]
-                delay = ET.SubElement(element, "Delay", name=f"delay {gate.condition.delay:g} s",
-                                      delay_msec=str(round(gate.condition.delay * 1000)))  # fmt: skip
-                if gate.condition.when is None:
-                    export.elements[id(gate)] = delay
-                stack.extend((child, delay) for child in reversed(children[1:]))
-                continue
-            stack.extend((child, element) for child in reversed(node.children))
+            below = export.inner.get(id(node), element)
+            stack.extend((child, below) for child in reversed(node.children))
 
 
 def _model_element(model: _Model) -> ET.Element:

@@ -398,7 +398,7 @@ class Collector(py_trees.visitors.VisitorBase):
         for result in execute:
             if result.status in ("running", "stopped", "not-started") and result.end is None:
                 node = nodes.get(result.id)
-                where = "" if not isinstance(node, Controlled) else node.progress() if node.status == _RUNNING else node.halted
+                where = "" if not isinstance(node, Controlled) else node.progress() if node.status == _RUNNING else node.why
                 message = result.message
                 if fired is not None and result.status == "stopped":
                     message = f"stopped by {fired[0]} at {fired[1]:g} s" + (f" ({where})" if where else "")

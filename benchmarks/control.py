@@ -81,7 +81,7 @@ def _run(case: Any) -> Callable[[], Any]:
     return work
 
 
-def measure(sizes: tuple[int, ...] = (10_000, 100_000), repeat: int = 3) -> dict[str, Any]:
+def measure(sizes: tuple[int, ...] = (10_000, 100_000), repeat: int = 3, runs: bool = True) -> dict[str, Any]:
     """Every figure, by size: ``build`` (load + generate) and ``run`` seconds of both variants, and the ratios."""
     out: dict[str, Any] = {"sizes": {}, "modifiers": list(MODIFIERS), "repeat": repeat}
     for n in sizes:
@@ -90,6 +90,9 @@ def measure(sizes: tuple[int, ...] = (10_000, 100_000), repeat: int = 3) -> dict
         for _ in range(repeat):  # alternating, so both see the same machine
             build["plain"] = min(build["plain"], _best(_build(plain), 1))
             build["modified"] = min(build["modified"], _best(_build(modified), 1))
+        if not runs:
+            out["sizes"][n] = {"build_s": build, "build_ratio": build["modified"] / build["plain"]}
+            continue
         cases = {"plain": btgen_pytrees.load(plain), "modified": btgen_pytrees.load(modified)}
         ran = {"plain": float("inf"), "modified": float("inf")}
         for _ in range(repeat):
@@ -102,7 +105,7 @@ def measure(sizes: tuple[int, ...] = (10_000, 100_000), repeat: int = 3) -> dict
             "run_s": ran, "run_ratio": ran["modified"] / ran["plain"], "ticks": ended,
             "run_us_per_tick": {k: v / ended * 1e6 for k, v in ran.items()}, "timeout_ticks": ticks,
         }  # fmt: skip
-    if len(sizes) > 1:
+    if len(sizes) > 1 and runs:
         small, large = out["sizes"][sizes[0]], out["sizes"][sizes[-1]]
         out["run_scaling"] = {k: large["run_us_per_tick"][k] / small["run_us_per_tick"][k] for k in ("plain", "modified")}
     return out
@@ -113,9 +116,10 @@ def report(figures: dict[str, Any]) -> str:
     lines = [f"control-flow keys on every tenth entry of a chain (in turn: {', '.join(keys)}); best of {figures['repeat']}"]
     for n, f in figures["sizes"].items():
         lines.append(f"  n={n:>7,}: load+generate {f['build_s']['plain']:.2f} s plain, {f['build_s']['modified']:.2f} s "
-                     f"modified = {f['build_ratio']:.2f}x (target {TARGET}x); run {f['run_s']['plain']:.2f} s plain, "
+                     f"modified = {f['build_ratio']:.2f}x (target {TARGET}x)" + ("" if "run_s" not in f else
+                     f"; run {f['run_s']['plain']:.2f} s plain, "
                      f"{f['run_s']['modified']:.2f} s modified = {f['run_ratio']:.2f}x, {f['ticks']:,} ticks, "
-                     f"{f['run_us_per_tick']['plain']:.1f} / {f['run_us_per_tick']['modified']:.1f} us per tick")  # fmt: skip
+                     f"{f['run_us_per_tick']['plain']:.1f} / {f['run_us_per_tick']['modified']:.1f} us per tick"))  # fmt: skip
     if "run_scaling" in figures:
         s = figures["run_scaling"]
         lines.append(f"  run time per tick, largest size against smallest: plain {s['plain']:.2f}x, modified "
@@ -127,9 +131,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.control", description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--build-only", action="store_true", help="load + generate only, no runs")
     parser.add_argument("--json", help="also write every figure to this file")
     args = parser.parse_args(argv)
-    figures = measure(tuple(args.sizes), args.repeat)
+    figures = measure(tuple(args.sizes), args.repeat, runs=not args.build_only)
     print(report(figures))
     if args.json:
         Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")

@@ -343,3 +343,15 @@ def test_a_when_on_a_sumo_signal_fires_on_the_tick_the_gap_first_falls_under_20_
     assert brake.status == "success" and brake.start == first == 4.3
     quiet = run(load(str(path)), record=False)  # the SUMO run that publishes only what the tree reads
     assert [(e.id, e.start, e.end) for e in quiet.execute] == [(e.id, e.start, e.end) for e in report.execute]
+
+
+def test_the_benchmark_chains_run_and_differ_only_in_their_keys() -> None:
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+    from benchmarks import control as bench
+
+    plain, modified = load(bench.chain(40, False)), load(bench.chain(40, True))
+    assert sum(e.control is not None for e in modified.entries) == 4 and all(e.control is None for e in plain.entries)
+    a, b = run(plain), run(modified)
+    assert a.verdict == b.verdict == "pass" and a.ticks == b.ticks == 41
+    figures = bench.measure((20,), repeat=1)
+    assert figures["sizes"][20]["ticks"] == 21 and "load+generate" in bench.report(figures)

@@ -11,6 +11,9 @@ completion flags, and keys of the host application are never touched::
     <ns>/failed_count/<id> how many members of the ``||`` group whose first member is <id> have failed
     <ns>/execute_done     set when the execute subtree has succeeded
     <ns>/t0               clock time of the run's first tick
+    <ns>/stop/<id>        stop requests for an entry (``stops``, ``race``: docs/semantics.md#control-flow)
+    <ns>/cut/<id>         set when an entry can no longer succeed (stopped, or its branch was)
+    <ns>/stopped          the case's ``stop`` that ended the run, and when
 
 **One tick, one time.** The clock is read once per tick of the tree, when its
 root (:class:`~btgen_pytrees.leaves.wiring.TreeRoot`) begins the tick

@@ -52,7 +52,7 @@ from .surrogate import FULL_TERMS, KEEP, Model, one_thread, quadratic_minimum
 __all__ = ["Sampler", "METHODS", "SearchUnavailable", "HINT", "available", "resolve_method"]
 
 METHODS = ("auto", "gp", "cmaes", "tpe", "sobol", "random")
-HINT = "falsify needs the 'search' extra (optuna, cmaes, scipy): pip install -e '.[search]'"
+HINT = "falsify needs the 'search' extra (optuna, cmaes, scipy, threadpoolctl): pip install -e '.[search]'"
 
 SIGMA0 = 0.2
 """CMA-ES's first step size, as a fraction of the unit box."""
@@ -81,7 +81,7 @@ def available() -> bool:
     """Whether the ``search`` extra's libraries are installed (found, not imported: each method imports
     what it uses when it starts - Optuna for ``tpe`` and ``random``, ``cmaes`` for CMA-ES - so a search
     does not pay for the others' imports)."""
-    return all(importlib.util.find_spec(name) is not None for name in ("cmaes", "optuna", "scipy", "numpy"))
+    return all(importlib.util.find_spec(name) is not None for name in ("cmaes", "optuna", "scipy", "numpy", "threadpoolctl"))
 
 
 def resolve_method(method: str, space: Space) -> str:

@@ -54,7 +54,7 @@ def test_decorator_registration_and_params_schema() -> None:
     with pytest.raises(btgen_pytrees.InvalidTestCase) as info:
         btgen_pytrees.load(bad, registry=registry)
     assert info.value.problems[0].pointer == "/execute/0/params/hz"
-    with pytest.raises(btgen_pytrees.InvalidTestCase, match="unknown behavior action 'beep'; known: hold, ramp, set"):
+    with pytest.raises(btgen_pytrees.InvalidTestCase, match="unknown behavior action 'beep'; known: hold, profile, ramp, set"):
         btgen_pytrees.load(good)
 
 
@@ -83,7 +83,7 @@ def test_cli_plugin_option() -> None:
     assert ok.returncode == 0, ok.stderr
     missing = cli("run", "examples/host_app/pick.json", env=env)
     assert missing.returncode == 2
-    assert "examples/host_app/pick.json: /execute/0/action: unknown behavior action 'move_arm'; known: hold, ramp, set" in missing.stderr
+    assert "examples/host_app/pick.json: /execute/0/action: unknown behavior action 'move_arm'; known: hold, profile, ramp, set" in missing.stderr
     broken = cli("validate", "examples/fig1.json", "--plugin", "no_such_module", env=env)
     assert broken.returncode == 2 and "plugin 'no_such_module': cannot import" in broken.stderr and "Traceback" not in broken.stderr
 

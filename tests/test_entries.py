@@ -260,7 +260,7 @@ def _words(data: dict[str, Any]) -> list[str]:
 
 
 _IDENTIFIER = "is not valid: expected an identifier (a letter or '_', then letters, digits, '_' or '-')"
-_KNOWN = "known: hold, ramp, set (a plugin may add it: --plugin MODULE or FILE.py)"
+_KNOWN = "known: hold, profile, ramp, set (a plugin may add it: --plugin MODULE or FILE.py)"
 
 
 def test_an_entry_checked_at_the_end_with_a_bad_id_gets_the_schema_s_words() -> None:

@@ -556,7 +556,7 @@ def test_a_sumo_action_in_a_case_without_the_sumo_system_is_a_validation_error()
     messages = [f"{p.pointer}: {p.message}" for p in info.value.problems]
     assert messages[0] == ("/execute/0/action: 'sumo.speed' is an action of the 'sumo' system; this case's system is "
                            "'simulated' (set \"system\": {\"type\": \"sumo\", ...})")  # fmt: skip
-    assert messages[1].startswith("/execute/1/action: unknown behavior action 'sett' (did you mean 'set'?); known: hold, ramp, set")
+    assert messages[1].startswith("/execute/1/action: unknown behavior action 'sett' (did you mean 'set'?); known: hold, profile, ramp, set")
 
 
 SAMPLES = {"seed": ["7"], "collision.action": ["none", "warn", "teleport", "remove"],

@@ -501,7 +501,7 @@ def test_module_plugin_imports_from_the_current_directory_and_puts_sys_path_back
     reg = default_registry(["clock_system"])
     assert reg.system("clock") is not None and sys.path == before
     unknown = btgen_pytrees.InvalidTestCase
-    with pytest.raises(unknown, match=r"unknown behavior action 'clock.wind'; known: hold, ramp, set \(a plugin may add it"):
+    with pytest.raises(unknown, match=r"unknown behavior action 'clock.wind'; known: hold, profile, ramp, set \(a plugin may add it"):
         btgen_pytrees.load(case(entry("W", action="clock.wind")), registry=reg)
-    with pytest.raises(unknown, match=r"'sumx.speed'; known: hold, ramp, set \(system 'sumx' is not installed; installed: clock, simulated, sumo; a plugin"):
+    with pytest.raises(unknown, match=r"'sumx.speed'; known: hold, profile, ramp, set \(system 'sumx' is not installed; installed: clock, simulated, sumo; a plugin"):
         btgen_pytrees.load(case(entry("W", action="sumx.speed")), registry=reg)

@@ -155,7 +155,7 @@ def test_any_signal_allowed_without_signals() -> None:
 
 def test_unknown_action_names_the_known_ones() -> None:
     pointer, message = only(case(entry("A", action="fly", kind="behavior")))
-    assert pointer == "/execute/0/action" and "unknown behavior action 'fly'" in message and "hold, ramp, set" in message
+    assert pointer == "/execute/0/action" and "unknown behavior action 'fly'" in message and "hold, profile, ramp, set" in message
 
 
 def test_action_of_the_other_kind() -> None:

@@ -38,7 +38,7 @@ def mixed() -> dict[str, Any]:
 def test_params_problems_come_in_the_same_round_as_shape_problems() -> None:
     assert problems(mixed()) == [
         ("/execute/0/kind", "'behaviour' is not one of 'behavior', 'constraint' (did you mean 'behavior'?)"),
-        ("/execute/3/action", "unknown behavior action 'hodl' (did you mean 'hold'?); known: hold, ramp, set "
+        ("/execute/3/action", "unknown behavior action 'hodl' (did you mean 'hold'?); known: hold, profile, ramp, set "
                               "(a plugin may add it: --plugin MODULE or FILE.py)"),
         ("/execute/4/params", "missing required key 'duration'"),
         ("/execute/4/params/duraton", "unknown key 'duraton' (did you mean 'duration'?)"),

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, Callable, Mapping, Union
+from typing import Any, Callable, Iterable, Mapping, Union
 
 import py_trees
 
@@ -80,6 +80,8 @@ class LeafType:
         expressions: names of params holding expressions (parsed at load time)
         signals: names of params holding a signal name (checked against ``signals``)
         description: one line for ``--help`` style listings
+        check: the rules of ``params`` a JSON schema cannot state (``profile``'s increasing times): called
+            with params that fit the schema, it yields ``(path inside params, message)`` per problem
     """
 
     kind: str
@@ -89,6 +91,7 @@ class LeafType:
     expressions: tuple[str, ...] = ()
     signals: tuple[str, ...] = ()
     description: str = ""
+    check: Callable[[Mapping[str, Any]], Iterable[tuple[tuple[str | int, ...], str]]] | None = None
 
     @cached_property
     def params_validator(self) -> SchemaValidator | None:
@@ -117,6 +120,7 @@ class Registry:
         signals: tuple[str, ...] = (),
         description: str = "",
         replace: bool = False,
+        check: Callable[[Mapping[str, Any]], Iterable[tuple[tuple[str | int, ...], str]]] | None = None,
     ) -> Any:
         """Register *factory* for ``(kind, action)``; usable as a decorator when *factory* is omitted."""
         if kind not in KINDS:
@@ -126,7 +130,7 @@ class Registry:
             key = (kind, action)
             if key in self._types and not replace:
                 raise ValueError(f"{kind} action {action!r} is already registered (pass replace=True)")
-            self._types[key] = LeafType(kind, action, f, params_schema, tuple(expressions), tuple(signals), description)
+            self._types[key] = LeafType(kind, action, f, params_schema, tuple(expressions), tuple(signals), description, check)
             return f
 
         return add if factory is None else add(factory)

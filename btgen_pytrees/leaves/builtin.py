@@ -6,6 +6,7 @@ the only place that knows their parameter schemas.
 
 from __future__ import annotations
 
+import importlib.util
 from typing import Any
 
 from ..contracts.registry import Registry
@@ -34,10 +35,26 @@ def _params(required: list[str], **properties: Any) -> dict[str, Any]:
 PARAMS: dict[str, dict[str, Any]] = {
     "set": _params(["signal", "value"], signal=_SIGNAL, value=_VALUE, duration=_SECONDS),
     "ramp": _params(["signal", "to", "duration"], signal=_SIGNAL, to={"type": "number"}, duration=_SECONDS),
+    "profile": _params(
+        ["signal", "points"], signal=_SIGNAL,
+        points={"type": "array", "minItems": 1, "maxItems": 100000,
+                "description": "control points [t, value]: t seconds from the entry's start (increasing), the value then",
+                "items": {"type": "array", "prefixItems": [_SECONDS, _VALUE], "minItems": 2, "maxItems": 2}},
+        shape={"enum": ["step", "linear", "pchip"], "default": "step",
+               "description": "step: each value holds until the next point; linear: interpolated; pchip: "
+                              "shape-preserving cubic (needs SciPy, the 'search' extra)"}),
     "hold": _params(["duration"], duration=_SECONDS),
     "wait": _params(["duration"], duration=_SECONDS),
     "until": _params(["expect"], expect={"type": "string", "minLength": 1, "maxLength": 1000}, timeout=_SECONDS),
 }
+
+
+def _profile_problems(params: Any) -> Any:
+    """``profile``'s rules past the schema; ``pchip`` only where SciPy is installed (a case is valid only
+    where it can run)."""
+    yield from simulated.profile_problems(params)
+    if params.get("shape") == "pchip" and importlib.util.find_spec("scipy") is None:
+        yield ("shape",), "the 'pchip' shape needs SciPy, which is not installed: pip install -e '.[search]'"
 
 
 def register_builtins(registry: Registry) -> Registry:
@@ -47,6 +64,8 @@ def register_builtins(registry: Registry) -> Registry:
                       description="write a signal; hold for 'duration' if given")  # fmt: skip
     registry.register("ramp", simulated.Ramp, kind=behaviour, params_schema=PARAMS["ramp"], signals=("signal",),
                       description="move a signal linearly to 'to' over 'duration'")  # fmt: skip
+    registry.register("profile", simulated.Profile, kind=behaviour, params_schema=PARAMS["profile"], signals=("signal",),
+                      check=_profile_problems, description="drive a signal through control points [t, value] (step, linear or pchip)")  # fmt: skip
     registry.register("hold", simulated.Hold, kind=behaviour, params_schema=PARAMS["hold"],
                       description="do nothing for 'duration'")  # fmt: skip
     registry.register("wait", simulated.Wait, kind=constraint, params_schema=PARAMS["wait"],

@@ -12,7 +12,8 @@ nanosecond, so that 0.1 * 3 counts as 0.3).
 
 from __future__ import annotations
 
-from typing import Any
+import bisect
+from typing import Any, Iterator, Mapping
 
 from py_trees.common import Status
 
@@ -21,7 +22,7 @@ from ..expressions import ExpressionError
 from ..model import Entry
 from .node import Node
 
-__all__ = ["SimulatedLeaf", "Set", "Ramp", "Hold", "Wait", "Until", "reached"]
+__all__ = ["SimulatedLeaf", "Set", "Ramp", "Profile", "profile_problems", "Hold", "Wait", "Until", "reached"]
 
 # the statuses as module constants: ``Status.SUCCESS`` is a look-up on the Enum class (~80 ns), every tick
 _SUCCESS, _FAILURE, _RUNNING = Status.SUCCESS, Status.FAILURE, Status.RUNNING
@@ -122,6 +123,83 @@ class Ramp(SimulatedLeaf):
         if isinstance(self.origin, bool):
             return _RUNNING
         value = self.origin + (target - self.origin) * (elapsed / duration)
+        self.env.write(signal, value, self.client)
+        self.feedback_message = f"{signal} = {value:.6g}"
+        return _RUNNING
+
+
+def profile_problems(params: Mapping[str, Any]) -> Iterator[tuple[tuple[str | int, ...], str]]:
+    """What the schema cannot say about ``profile``'s ``points``: their times increase, and a boolean
+    signal only steps.
+
+    >>> list(profile_problems({"signal": "u", "points": [[0, 1], [5, 2], [5, 3]]}))
+    [(('points', 2, 0), 'the times must increase: 5 s follows 5 s')]
+    """
+    points = params["points"]
+    for i in range(1, len(points)):
+        if not points[i][0] > points[i - 1][0]:
+            yield ("points", i, 0), f"the times must increase: {points[i][0]:g} s follows {points[i - 1][0]:g} s"
+    if params.get("shape", "step") != "step":
+        for i, (_, value) in enumerate(points):
+            if isinstance(value, bool):
+                yield ("points", i, 1), f"a {params['shape']} profile interpolates numbers; {str(value).lower()} only steps"
+
+
+class Profile(SimulatedLeaf):
+    """``profile {signal, points, shape}``: an input signal given by control points ``[t, value]``.
+
+    *t* is seconds from the entry's start. ``step`` holds each value from its time until the next
+    point's; ``linear`` interpolates between points; ``pchip`` is SciPy's shape-preserving piecewise
+    cubic through them (``scipy.interpolate.PchipInterpolator``: no overshoot between two points, so a
+    throttle profile in [0, 1] stays in [0, 1]). When the first point's time is after 0, the signal's
+    value at the start (0 when it has none) is the point at 0, as ``ramp`` starts from it. On the first
+    tick at or after the last point's time the last value is written and the entry succeeds.
+
+    A falsification input is such a signal: its values (and times) may be ``$parameters``, so a sweep's
+    or a search's box is the input space (docs/falsify.md, the chasing-cars example).
+    """
+
+    def keys(self) -> tuple[list[str], list[str]]:
+        return [], [self.env.signal_key(self.params["signal"])]  # written, and read at the start
+
+    def initialise(self) -> None:
+        super().initialise()
+        points = [(float(t), v) for t, v in self.params["points"]]
+        if points[0][0] > 0:
+            try:
+                origin = self.env.read(self.params["signal"], self.client)
+            except KeyError:  # a signal without an initial value starts from 0, as a ramp does
+                origin = 0
+            points.insert(0, (0.0, origin))
+        self.times = [t for t, _ in points]
+        self.values = [v for _, v in points]
+        self.shape = self.params.get("shape", "step")
+        self.curve = None
+        if self.shape == "pchip" and len(points) > 1:
+            from scipy.interpolate import PchipInterpolator  # the 'search' extra; checked when the case is loaded
+
+            self.curve = PchipInterpolator(self.times, [float(v) for v in self.values])
+
+    def value(self, elapsed: float) -> Any:
+        """The profile's value *elapsed* seconds after the start (before the last point's time)."""
+        times, values = self.times, self.values
+        i = bisect.bisect_right(times, elapsed) - 1
+        while i + 1 < len(times) and reached(elapsed, times[i + 1]):  # 0.1 * 3 is at the point of 0.3
+            i += 1
+        if self.shape == "step" or i + 1 >= len(times):
+            return values[i]
+        if self.curve is not None:
+            return float(self.curve(elapsed))
+        t0, t1, v0, v1 = times[i], times[i + 1], values[i], values[i + 1]
+        return v0 + (v1 - v0) * ((elapsed - t0) / (t1 - t0))
+
+    def update(self) -> Status:
+        signal, elapsed = self.params["signal"], self.elapsed()
+        if reached(elapsed, self.times[-1]):
+            self.env.write(signal, self.values[-1], self.client)
+            self.feedback_message = f"{signal} = {self.values[-1]}"
+            return _SUCCESS
+        value = self.value(elapsed)
         self.env.write(signal, value, self.client)
         self.feedback_message = f"{signal} = {value:.6g}"
         return _RUNNING

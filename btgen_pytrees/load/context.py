@@ -191,6 +191,9 @@ class Checker:
             return {}
         if not self.params(leaf, path, params):
             return {}
+        if leaf.check is not None:
+            for where, message in leaf.check(params):
+                self.add((*path, "params", *where), message, "action")
         for name in leaf.signals:
             if isinstance(params.get(name), str):
                 self.signal(params[name], (*path, "params", name), action)

@@ -355,3 +355,14 @@ def test_the_benchmark_chains_run_and_differ_only_in_their_keys() -> None:
     assert a.verdict == b.verdict == "pass" and a.ticks == b.ticks == 41
     figures = bench.measure((20,), repeat=1)
     assert figures["sizes"][20]["ticks"] == 21 and "load+generate" in bench.report(figures)
+
+
+def test_parameters_stand_in_the_control_keys() -> None:
+    data = case(ramp_x(), {**entry("B", duration=0.5), "when": "x > $lim", "delay": "$d", "attempts": "$n"},
+                signals={"x": 0}, parameters={"lim": 3, "d": 0.5, "n": 2}, stop=[{"when": "x >= $top", "delay": "$d"}])  # fmt: skip
+    data["parameters"]["top"] = 9
+    loaded = load(data)
+    control = loaded.entries[1].control
+    assert control.when.source == "x > 3" and control.delay == 0.5 and control.attempts == 2
+    assert loaded.stop[0].when.source == "x >= 9" and loaded.stop[0].delay == 0.5
+    assert results(run(loaded))["B"] == ("success", 1.2, 1.7)  # x > 3 from 0.7, then 0.5 s

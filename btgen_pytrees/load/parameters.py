@@ -96,6 +96,19 @@ def _candidates(doc: Mapping[str, Any]) -> Iterator[tuple[tuple[PathPart, ...], 
         if isinstance(entry, dict) and "params" in entry:
             for path, text in _strings(entry["params"], ("execute", i, "params")):
                 yield path, text, True
+        if isinstance(entry, dict):  # the control keys (docs/format.md#control-flow): numbers, and a when's text
+            for key in ("delay", "timeout", "attempts", "repeat"):
+                if isinstance(entry.get(key), str):
+                    yield ("execute", i, key), entry[key], True
+            if isinstance(entry.get("when"), str):
+                yield ("execute", i, "when"), entry["when"], False
+    stop = doc.get("stop")
+    for i, item in enumerate(stop if isinstance(stop, list) else ()):
+        if isinstance(item, dict):
+            if isinstance(item.get("delay"), str):
+                yield ("stop", i, "delay"), item["delay"], True
+            if isinstance(item.get("when"), str):
+                yield ("stop", i, "when"), item["when"], False
     oracle = doc.get("oracle")
     criteria = oracle.get("criteria") if isinstance(oracle, dict) else None
     for i, crit in enumerate(criteria if isinstance(criteria, list) else ()):

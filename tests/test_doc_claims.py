@@ -94,10 +94,13 @@ def test_readme_replay_picture_says_what_it_shows() -> None:
 
 def test_readme_verdict_map_is_described_by_margins() -> None:
     """The README described the cut-in's map as red/green verdict cells: since margins, cells are coloured by
-    the oracle's margin (docs/sweeps.md). Its picture is made and checked by docs/pictures.py."""
+    how far each run was from failing, the margins scaled as falsify's objective (docs/sweeps.md), the scale
+    the picture's colour bar names. The picture is made and checked by docs/pictures.py."""
     start = README.index("A sweep - one case, many parameter values")
     paragraph = README[start:README.index("](docs/images/cut_in_sweep_map.svg)", start)]
-    assert "coloured by its margin" in paragraph and "margin on a red-yellow-green scale" in paragraph
+    assert "objective" in paragraph and "red-yellow-green scale" in paragraph and "red where" not in paragraph
     record = (ROOT / "docs" / "images" / "pictures.json").read_text(encoding="utf-8")
     assert '"cut_in_sweep_map.svg"' in record
-    assert "margin (robustness" in (ROOT / "docs" / "images" / "cut_in_sweep_map.svg").read_text(encoding="utf-8")
+    svg = (ROOT / "docs" / "images" / "cut_in_sweep_map.svg").read_text(encoding="utf-8")
+    bar = [text for text in re.findall(r">([^<]*)</text>", svg) if "0 failed" in text]
+    assert len(bar) == 1 and bar[0].startswith("objective"), bar  # the colour bar's label

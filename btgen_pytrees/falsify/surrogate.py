@@ -265,16 +265,26 @@ def _libraries() -> tuple[Any, Any, Any]:
     return numpy, lapack, ndtri
 
 
-@functools.lru_cache(maxsize=1)
+_CONTROLLER: list[Any] = [-1, None]
+"""How many modules were loaded when the controller was made, and the controller."""
+
+
 def _controller() -> Any:
     """threadpoolctl's view of the BLAS libraries loaded (NumPy's and SciPy's, imported first so it sees
-    both); None without threadpoolctl."""
+    both), made again when modules were imported since (a library loaded later - by a plugin, another
+    import - is seen too; making it costs a millisecond, comparing a count nothing); None without
+    threadpoolctl."""
+    import sys
+
     _libraries()
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - the search extra brings it
-        return None
-    return ThreadpoolController()
+    if _CONTROLLER[0] != len(sys.modules):
+        try:
+            from threadpoolctl import ThreadpoolController
+        except ImportError:  # pragma: no cover - the search extra brings it
+            return None
+        _CONTROLLER[1] = ThreadpoolController()
+        _CONTROLLER[0] = len(sys.modules)
+    return _CONTROLLER[1]
 
 
 def one_thread() -> Any:

@@ -228,25 +228,57 @@ def case_for(requirement: str) -> dict[str, Any]:
 PLUGINS = RunOptions(plugins=("benchmarks.arch_cc",))
 
 
-def search(requirement: str, method: str, seed: int, budget: int) -> Search:
-    """One search of *requirement*'s box, batch 1 in this process, stopping at the first failing run."""
+def sweep_of(requirement: str) -> Any:
     registry = default_registry()
     register(registry)
-    sweep = load_sweep(case_for(requirement), registry=registry, check_all=False, max_variations=10**100)
+    return load_sweep(case_for(requirement), registry=registry, check_all=False, max_variations=10**100)
+
+
+def row(sweep: Any, values: Mapping[str, Any]) -> dict[str, Any]:
+    """One run of the case at *values*, as the search's job runs it (its sweep row and ``margins``)."""
+    outcome = timed("x", PLUGINS, sweep.source, sweep.document({**sweep.defaults, **values}), None)
+    result = dict(getattr(outcome, "row", {"verdict": "error", "oracles": []}))
+    result["margins"] = row_margins(result)
+    return result
+
+
+def search(requirement: str, method: str, seed: int, budget: int) -> Search:
+    """One search of *requirement*'s box, batch 1 in this process, stopping at the first failing run."""
+    sweep = sweep_of(requirement)
+    registry = default_registry()
+    register(registry)
     space = Space.of(sweep.variations)
     groups = groups_of(validate(sweep.document(sweep.defaults), sweep.source, registry))
 
     def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        rows = []
-        for values in points:
-            outcome = timed("x", PLUGINS, sweep.source, sweep.document({**sweep.defaults, **values}), None)
-            row = dict(getattr(outcome, "row", {"verdict": "error", "oracles": []}))
-            row["margins"] = row_margins(row)
-            rows.append(row)
-        return rows
+        return [row(sweep, values) for values in points]
 
     settings = Settings(method=method, seed=seed, budget=budget, stop="failure", batch=1)
     return Search(space, sweep.defaults, settings, evaluate, groups).run()
+
+
+def psy_taliro(requirement: str, seed: int, budget: int) -> int | None:
+    """PSY-TaLiRo 3's dual annealing (its default falsifier) on the same box and the same runs: the cost of a
+    sample is the run's margin of the requirement (the same tree, model and criterion); it stops at the
+    first cost below 0 (its seeds start at 1: seed + 1). Returns the runs to the first failing one (None: none within *budget*)."""
+    import staliro  # the benchmark's own extra (`arch`): imported only when asked for
+    from staliro.optimizers import DualAnnealing
+
+    sweep = sweep_of(requirement)
+    names = sorted(sweep.defaults)
+    seen: list[bool] = []
+
+    @staliro.costfunc
+    def cost(inputs: Any) -> float:
+        values = {n: round(float(inputs.static[n]), 6) for n in names}
+        result = row(sweep, values)
+        seen.append(result["verdict"] != "pass")
+        margin = result["oracles"][0].get("margin") if result["oracles"] else None
+        return -1.0 if margin is None else float(margin) - (1e-9 if seen[-1] else 0.0)
+
+    options = staliro.TestOptions(static_inputs={n: (0.0, 1.0) for n in names}, iterations=budget, runs=1, seed=seed + 1)
+    staliro.staliro(cost, DualAnnealing(min_cost=0.0), options)
+    return seen.index(True) + 1 if True in seen else None
 
 
 def summary(firsts: list[int | None], budget: int) -> dict[str, Any]:
@@ -261,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.arch_cc", description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=2, help="searches per requirement and method (default 2)")
     parser.add_argument("--budget", type=int, default=1500, help="runs per search (default 1,500)")
-    parser.add_argument("--methods", default="auto,random", help="comma-separated falsify methods (default auto,random)")
+    parser.add_argument("--methods", default="auto,random", help="comma-separated falsify methods, and psy-taliro (PSY-TaLiRo's dual annealing; the `arch` extra) (default auto,random)")
     parser.add_argument("--requirements", default=",".join(REQUIREMENTS), help="comma-separated (default all)")
     parser.add_argument("--json", help="write the figures here")
     args = parser.parse_args(argv)
@@ -271,7 +303,10 @@ def main(argv: list[str] | None = None) -> int:
         for method in args.methods.split(","):
             firsts, began = [], time.perf_counter()
             for seed in range(args.seeds):
-                firsts.append(search(requirement, method, seed, args.budget).first_failure)
+                if method == "psy-taliro":
+                    firsts.append(psy_taliro(requirement, seed, args.budget))
+                else:
+                    firsts.append(search(requirement, method, seed, args.budget).first_failure)
             s = summary(firsts, args.budget)
             s.update(requirement=requirement, method=method, firsts=firsts, budget=args.budget,
                      seconds=(time.perf_counter() - began) / args.seeds)

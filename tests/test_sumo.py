@@ -326,16 +326,31 @@ def final_values(report: Any, criterion: str) -> dict[str, Any]:
 
 
 def sumo_processes() -> set[int]:
-    """Pids of processes called sumo* (libsumo starts none; the diagnosis of a failed load may)."""
-    found = set()
+    """Pids of this process's descendants called sumo* (libsumo starts none; the diagnosis of a failed load
+    may). Only descendants: under pytest-xdist another worker's tests may run SUMO at the same time."""
+    found, parents = set(), {}
     for pid in os.listdir("/proc") if os.path.isdir("/proc") else ():
         try:
+            with open(f"/proc/{pid}/stat", encoding="utf-8") as fh:
+                stat = fh.read()
+            parents[int(pid)] = int(stat[stat.rindex(")") + 2:].split()[1])
             with open(f"/proc/{pid}/comm", encoding="utf-8") as fh:
                 if fh.read().startswith("sumo"):
                     found.add(int(pid))
-        except (OSError, ValueError):
+        except (OSError, ValueError, IndexError):
             continue
-    return found
+    me = os.getpid()
+
+    def descends(pid: int) -> bool:
+        seen = set()
+        while pid > 1 and pid not in seen:
+            seen.add(pid)
+            pid = parents.get(pid, 0)
+            if pid == me:
+                return True
+        return False
+
+    return {pid for pid in found if descends(pid)}
 
 
 @needs_sumo

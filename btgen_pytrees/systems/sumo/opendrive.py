@@ -160,14 +160,21 @@ class Lane:
     id: int
     type: str
     widths: tuple[tuple[float, float, float, float, float], ...]
+    starts: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    """Where each width record starts (``sOffset``), for the search of :meth:`width`."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "starts", tuple(w[0] for w in self.widths))
 
     def width(self, ds: float) -> float:
         """Width at *ds* m into its lane section."""
-        if not self.widths:
+        widths = self.widths
+        if not widths:
             return 0.0
-        i = max(0, bisect.bisect_right([w[0] for w in self.widths], ds) - 1)
-        start, a, b, c, d = self.widths[i]
-        return max(0.0, _poly((a, b, c, d), ds - start))
+        i = max(0, bisect.bisect_right(self.starts, ds) - 1) if len(widths) > 1 else 0
+        start, a, b, c, d = widths[i]
+        ds -= start
+        return max(0.0, a + ds * (b + ds * (c + ds * d)))
 
 
 @dataclass(frozen=True)
@@ -176,6 +183,12 @@ class LaneSection:
 
     s: float
     lanes: Mapping[int, Lane]
+    constant: bool = field(init=False, repr=False, compare=False)
+    """Whether every lane has one width record and it is constant (so are the lanes' borders along it)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "constant", all(len(lane.widths) == 1 and lane.widths[0][2:] == (0.0, 0.0, 0.0)
+                                                 for lane in self.lanes.values()))  # fmt: skip
 
 
 @dataclass
@@ -193,6 +206,8 @@ class Road:
     successor: tuple[str, str] | None = None
     _samples: list[tuple[float, float, float]] = field(default_factory=list, repr=False)
     _starts: tuple[list[float], list[float], list[float]] | None = field(default=None, repr=False)
+    _borders: tuple[float, dict[int, tuple[float, float]]] | None = field(default=None, repr=False)
+    _fixed: dict[tuple[int, int], dict[int, tuple[float, float]]] = field(default_factory=dict, repr=False)
 
     def starts(self) -> tuple[list[float], list[float], list[float]]:
         """Where each geometry piece, lane offset record and lane section starts (``s``), computed once."""
@@ -219,8 +234,21 @@ class Road:
         return self.sections[i]
 
     def borders(self, s: float) -> dict[int, tuple[float, float]]:
-        """Lane id -> ``(t of its inner border, t of its outer border)`` at *s* (inner: towards lane 0)."""
-        section = self.section(s)
+        """Lane id -> ``(t of its inner border, t of its outer border)`` at *s* (inner: towards lane 0).
+
+        The last answer is kept: locating a point asks for the borders at one ``s`` twice (its lane, then
+        the lane's centre), every step of a run. The dict returned is shared: do not change it."""
+        last = self._borders
+        if last is not None and last[0] == s:
+            return last[1]
+        starts = self.starts()
+        k = max(0, bisect.bisect_right(starts[2], s) - 1)
+        j = max(0, bisect.bisect_right(starts[1], s) - 1) if self.offsets else -1
+        fixed = self._fixed.get((k, j))
+        if fixed is not None:
+            self._borders = (s, fixed)
+            return fixed
+        section = self.sections[k]
         ds = s - section.s
         base = self.lane_offset(s)
         out: dict[int, tuple[float, float]] = {}
@@ -232,6 +260,9 @@ class Road:
                 out[i] = (t, t + sign * w)
                 t += sign * w
                 i += sign
+        self._borders = (s, out)
+        if section.constant and (j < 0 or self.offsets[j][2:] == (0.0, 0.0, 0.0)):
+            self._fixed[(k, j)] = out  # the same borders all along the section (on finite s: a + ds * 0.0 is a)
         return out
 
     def lane_t(self, lane: int, s: float) -> float:
@@ -272,9 +303,10 @@ class Road:
             if s_next == s:
                 break
             s = s_next
-        rx, ry, h = self.reference(s)
-        c, sn = math.cos(h), math.sin(h)
-        along = (x - rx) * c + (y - ry) * sn
+        else:  # the last step moved s: its line point is not yet worked out
+            rx, ry, h = self.reference(s)
+            c, sn = math.cos(h), math.sin(h)
+            along = (x - rx) * c + (y - ry) * sn
         t = -(x - rx) * sn + (y - ry) * c
         beyond = along if (s >= self.length and along > 0) or (s <= 0 and along < 0) else 0.0
         return s, t, beyond
@@ -282,8 +314,7 @@ class Road:
     def lane_at(self, s: float, t: float) -> int | None:
         """The id of the lane that holds ``t`` at *s* (``None`` outside every lane)."""
         for lane, (inner, outer) in self.borders(s).items():
-            low, high = min(inner, outer), max(inner, outer)
-            if low <= t <= high and outer != inner:
+            if (inner <= t <= outer or outer <= t <= inner) and outer != inner:
                 return lane
         return None
 

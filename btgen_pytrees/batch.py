@@ -1,7 +1,7 @@
 """Batch mode: validate, show or run many test cases, in parallel.
 
 ``python -m btgen_pytrees validate|show|run DIR_OR_FILES... [--jobs N] [--out-dir D]``
-expands directories to the ``*.json`` files under them (sorted, so the order and
+expands directories to the ``*.json`` and ``*.xosc`` files under them (sorted, so the order and
 the output names are stable), processes each file in a worker process
 (:func:`btgen_pytrees.parallel.process`), and ends with a summary table. One bad
 file never stops the others: every file gets an :class:`~btgen_pytrees.parallel.Outcome`,
@@ -32,6 +32,7 @@ from .sweep.runs import resolved_system, sweep_report
 from .sweep.jobs import RunOptions, job_chunk, registry_for
 from .sweep.plot import map_bytes
 from .load.variations import Variations
+from .openscenario import is_catalog, is_openscenario
 from .contracts.system import SystemSpec
 from .timeline import timeline
 
@@ -40,8 +41,9 @@ __all__ = ["expand", "output_names", "job_validate", "job_show", "job_run", "job
 
 
 def expand(paths: Iterable[str]) -> list[str]:
-    """Files as given, directories replaced by the ``*.json`` entries under them (recursive, sorted; an
-    OpenSCENARIO scenario's sidecar ``NAME.oracle.json`` is not a case).
+    """Files as given, directories replaced by the ``*.json`` and ``*.xosc`` entries under them (recursive,
+    sorted; an OpenSCENARIO scenario's sidecar ``NAME.oracle.json`` and an OpenSCENARIO catalog file are
+    not cases: :func:`~btgen_pytrees.openscenario.is_catalog` reads the start of each ``.xosc`` to tell).
 
     The walk is iterative (a tree 1,000 folders deep is fine) and does not
     follow symbolic links to directories (no loops). Every ``*.json`` entry that
@@ -71,6 +73,8 @@ def expand(paths: Iterable[str]) -> list[str]:
                 if is_dir:
                     stack.append(item.path)
                 elif item.name.endswith(".json") and not _sidecar(item.path):
+                    found.append(item.path)
+                elif is_openscenario(item.name) and not is_catalog(item.path):
                     found.append(item.path)
         out.extend(sorted(found, key=_path_key))
     return out

@@ -46,6 +46,7 @@ from .leaves import FactoryError, PluginError, Registry, default_registry
 from .leaves.plugins import is_path, loads_user_code
 from .load import MAX_WORK, check_work, load_json, validate
 from .model import TestCase
+from .openscenario import is_catalog
 from .supervise import LOST, ChildLost, in_child
 from .writing import commit
 from .run import Report, run, run_tree
@@ -185,6 +186,8 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Col
     if parent.session.isinitpath(file_path):
         return CaseFile.from_parent(parent, path=file_path)
     if any(_matches(p, file_path) for p in settings(config).patterns) and not is_artifact(file_path):
+        if file_path.suffix.lower() == ".xosc" and is_catalog(str(file_path)):
+            return None  # an OpenSCENARIO catalog beside the scenarios that use it: not a case
         return CaseFile.from_parent(parent, path=file_path)
     return None
 

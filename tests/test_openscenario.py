@@ -541,6 +541,8 @@ def test_pytest_plugin_collects_xosc_files(tmp_path):
     inner = ('<Stochastic numberOfTestRuns="2" randomSeed="3"><StochasticDistribution parameterName="Gap_m">'
              '<UniformDistribution><Range lowerLimit="12" upperLimit="40"/></UniformDistribution></StochasticDistribution></Stochastic>')
     (tmp_path / "v.xosc").write_text(distribution(inner, "braking_lead.xosc"))
+    (tmp_path / "catalog.xosc").write_text('<OpenSCENARIO><FileHeader revMajor="1" revMinor="2" date="2024-01-01T00:00:00" '
+                                           'description="c" author="a"/><Catalog name="c"/></OpenSCENARIO>')  # not collected
     done = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:randomly", "-p", "no:cacheprovider",
                            "--btgen-files=*.xosc"], cwd=tmp_path, capture_output=True, text=True, timeout=300)  # fmt: skip
     items = [line for line in done.stdout.splitlines() if "::" in line]
@@ -575,10 +577,17 @@ def test_corpus_cut_in_events_start_on_the_tick_their_trigger_holds(tmp_path):
     assert float(rows[-1]["time"]) == pytest.approx(done + 10 + 0.1)
 
 
-def test_a_directory_of_cases_leaves_out_the_sidecars():
+def test_a_directory_of_cases_holds_its_scenarios_not_the_sidecars_or_catalogs(tmp_path):
     from btgen_pytrees import batch
     found = [os.path.basename(p) for p in batch.expand([str(EXAMPLES)])]
-    assert found == []  # the examples' .json files there are all sidecars of .xosc scenarios
+    assert found == ["braking_lead.xosc", "braking_lead_variation.xosc", "cut_in.xosc"]  # the .json there are sidecars
+    (tmp_path / "catalogs").mkdir()
+    (tmp_path / "catalogs" / "cars.xosc").write_text(
+        '<?xml version="1.0"?>\n<OpenSCENARIO><FileHeader revMajor="1" revMinor="2" date="2024-01-01T00:00:00" '
+        'description="c" author="a"/><Catalog name="cars"/></OpenSCENARIO>')  # fmt: skip
+    shutil.copy(EXAMPLES / "cut_in.xosc", tmp_path / "s.xosc")
+    (tmp_path / "broken.xosc").write_text("<OpenSCENARIO><FileHeader")  # cannot be told: listed, the loader says why
+    assert [os.path.relpath(p, tmp_path) for p in batch.expand([str(tmp_path)])] == ["broken.xosc", "s.xosc"]
 
 
 def test_reach_position_and_distance_conditions_use_the_roads_world_point(tmp_path):

@@ -34,7 +34,7 @@ from ..load.variations import format_value
 from ..sweep.runs import file_name
 from ..systems.sumo import keep_simulations, release_simulations, reuse_simulations
 from .checks import check_out_dir, make_out_dir
-from .options import Parents, registry
+from .options import SIDECAR_NOTE, Parents, registry
 from .sweep import add_executor_options, make_executor, run_options
 from .terminal import deliver, err
 
@@ -47,7 +47,7 @@ _NO_LIMIT = math.inf
 def add_parser(sub: Any, parents: Parents) -> None:
     """The ``falsify`` subcommand and its own options (``--jobs``, ``--plugin`` come from the shared parents)."""
     parser = sub.add_parser("falsify", parents=[parents.plugin, parents.many], help="search a sweep's parameter box for a failing setting (docs/falsify.md)")
-    parser.add_argument("file", metavar="SWEEP", help="a test case with a variations block (its box is searched)")
+    parser.add_argument("file", metavar="SWEEP", help="a test case with a variations block (its box is searched), or a ParameterValueDistribution (.xosc); " + SIDECAR_NOTE)
     parser.add_argument("--method", choices=METHODS, help="search method (default: the file's search.method, else auto)")
     parser.add_argument("--budget", type=int, metavar="N", help="most runs (default: search.budget, else 200)")
     parser.add_argument("--seed", type=int, metavar="S", help="seed of the search (default: search.seed, else 0)")

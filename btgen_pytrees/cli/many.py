@@ -80,10 +80,10 @@ def process_files(args: argparse.Namespace, job: Callable[..., Outcome], job_arg
 
 
 def expand_files(args: argparse.Namespace) -> list[str]:
-    """The files named, directories replaced by their *.json files; invalid input if none."""
+    """The files named, directories replaced by their *.json and *.xosc files (not catalogs); invalid input if none."""
     files = expand(args.files)
     if not files:
-        raise InvalidTestCase([Problem((), "no *.json files found", "json")], ", ".join(args.files))
+        raise InvalidTestCase([Problem((), "no *.json or *.xosc files found", "json")], ", ".join(args.files))
     return files
 
 

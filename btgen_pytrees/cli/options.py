@@ -19,7 +19,13 @@ from ..systems import SystemSpec
 from .terminal import err
 
 __all__ = ["Parser", "Parents", "parents", "MAX_JOBS", "MAX_INDENT", "non_negative", "indent", "positive", "registry",
-           "system", "chosen", "check_jobs"]  # fmt: skip
+           "system", "chosen", "check_jobs", "SIDECAR_NOTE"]  # fmt: skip
+
+SIDECAR_NOTE = ("a .xosc takes its ego, timeout and extra criteria from SCENARIO.oracle.json beside it "
+                "(docs/openscenario.md; 'convert --ego/--timeout/--oracle' writes them into a case)")
+"""What the commands that take a case file say of an OpenSCENARIO file's options: the sidecar file is their
+interface (only ``convert`` takes them on its command line), so a scenario judges alike in every command,
+worker and pytest session."""
 
 MAX_JOBS = 64
 """Most worker processes ``--jobs`` may ask for (more is a usage error)."""

@@ -30,7 +30,7 @@ from ..sweep.runs import resolved_system, ship
 from ..systems import SystemSpec
 from .checks import check_out_dir, check_output, targets
 from .many import run_batch, single
-from .options import Parents, chosen, non_negative, positive, registry, system
+from .options import SIDECAR_NOTE, Parents, chosen, non_negative, positive, registry, system
 from .sweep import add_executor_options, make_executor, run_options, run_sweep
 from .terminal import deliver, err, stdout_text
 
@@ -39,7 +39,7 @@ __all__ = ["add_parser", "cmd_run"]
 
 def add_parser(sub: Any, parents: Parents) -> None:
     parser = sub.add_parser("run", parents=[parents.plugin, parents.many, parents.chosen], help="run the tree against its system (default: the virtual-clock simulator) and print verdicts")
-    parser.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
+    parser.add_argument("files", nargs="+", metavar="FILE", help="test case file, .json or .xosc (several, or directories of them: batch mode); " + SIDECAR_NOTE)
     parser.add_argument("--json", metavar="REPORT", help="write the report as JSON (schemas/report.schema.json; a sweep's: schemas/sweep-report.schema.json)")
     parser.add_argument("--junit", metavar="XML", help="write the report as JUnit XML (several files: one file, a testsuite per case)")
     parser.add_argument("--require-complete", action="store_true",

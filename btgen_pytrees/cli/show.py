@@ -19,7 +19,7 @@ from ..render.dot import png_depth
 from ..timeline import timeline
 from .checks import check_out_dir, check_output, targets
 from .many import run_batch, single
-from .options import MAX_INDENT, Parents, chosen, indent, non_negative, registry
+from .options import MAX_INDENT, SIDECAR_NOTE, Parents, chosen, indent, non_negative, registry
 from .terminal import can_encode, err, write_stdout
 
 __all__ = ["add_parser", "cmd_show", "SUFFIX_FORMATS"]
@@ -34,7 +34,7 @@ BINARY_FORMATS = ("png",)
 
 def add_parser(sub: Any, parents: Parents) -> None:
     show = sub.add_parser("show", parents=[parents.plugin, parents.many, parents.chosen], help="print the generated tree (default command)")
-    show.add_argument("files", nargs="+", metavar="FILE", help="test case JSON file (several, or directories: batch mode)")
+    show.add_argument("files", nargs="+", metavar="FILE", help="test case file, .json or .xosc (several, or directories of them: batch mode); " + SIDECAR_NOTE)
     show.add_argument("--format", "-f", choices=sorted(FORMATS), help="output format (default: from the -o suffix, else unicode if the terminal can show it, else ascii)")
     show.add_argument("--output", "-o", metavar="PATH", help="write to PATH instead of stdout (.svg/.png/.dot/.json/.xml/.txt choose the format)")
     show.add_argument("--max-depth", type=non_negative, metavar="N", help="text and dot/svg/png formats: show nodes down to depth N only (root = 0); deeper subtrees are collapsed")

@@ -7,9 +7,9 @@ The loader (``load/read.py``) calls :func:`read_openscenario` for a ``.xosc`` fi
 command and the pytest plugin take one as they take ``.json``.
 """
 
-from .convert import SUFFIX, ScenarioSweep, ScenarioVariations, convert_file, is_openscenario, read_openscenario
+from .convert import SUFFIX, ScenarioSweep, ScenarioVariations, convert_file, is_catalog, is_openscenario, read_openscenario
 from .oracle import read_sidecar, sidecar_path
 from .scenario import DEFAULT_TICK, DEFAULT_TIMEOUT, EGO_NAMES, Options
 
 __all__ = ["read_openscenario", "convert_file", "is_openscenario", "ScenarioSweep", "ScenarioVariations", "SUFFIX",
-           "Options", "DEFAULT_TIMEOUT", "DEFAULT_TICK", "EGO_NAMES", "read_sidecar", "sidecar_path"]
+           "Options", "DEFAULT_TIMEOUT", "DEFAULT_TICK", "EGO_NAMES", "read_sidecar", "sidecar_path", "is_catalog"]

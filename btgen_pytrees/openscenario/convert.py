@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+import xml.parsers.expat
 from typing import Any, Callable, Iterator, Mapping
 
 from ..errors import InvalidTestCase, Problem
@@ -34,7 +35,8 @@ from .parameters import Scope, convert_value
 from .scenario import Options, convert_scenario, header
 from .xmltree import CAUSE, Node, XmlProblem, problem, read_xml, unused
 
-__all__ = ["read_openscenario", "ScenarioSweep", "ScenarioVariations", "is_openscenario", "convert_file", "SUFFIX", "scan"]
+__all__ = ["read_openscenario", "ScenarioSweep", "ScenarioVariations", "is_openscenario", "convert_file", "SUFFIX", "scan",
+           "is_catalog"]
 
 SUFFIX = ".xosc"
 
@@ -42,6 +44,51 @@ SUFFIX = ".xosc"
 def is_openscenario(path: Any) -> bool:
     """Whether *path* names an OpenSCENARIO file (by its suffix)."""
     return isinstance(path, (str, os.PathLike)) and os.fspath(path).lower().endswith(SUFFIX)
+
+
+class _Found(Exception):
+    pass
+
+
+PEEK_BYTES = 1024 * 1024
+"""How much of a ``.xosc`` :func:`is_catalog` reads at most to find the element after its header."""
+
+
+def is_catalog(path: str) -> bool:
+    """Whether the ``.xosc`` file *path* is a catalog (its root holds a ``Catalog``): a directory of
+    scenarios keeps its catalogs beside them, and they are no case. Only the start of the file is
+    read, by expat with no DOCTYPE; a file that cannot be read or told is not a catalog (so the
+    loader, given it, says what is wrong with it)."""
+    parser = xml.parsers.expat.ParserCreate()
+    depth = [0]
+
+    def start(tag: str, _attributes: Any) -> None:
+        depth[0] += 1
+        if depth[0] == 2 and tag != "FileHeader":
+            raise _Found(tag == "Catalog")
+
+    def end(_tag: str) -> None:
+        depth[0] -= 1
+
+    def refuse(*_args: Any) -> None:
+        raise _Found(False)
+
+    parser.StartElementHandler, parser.EndElementHandler = start, end
+    parser.StartDoctypeDeclHandler = parser.EntityDeclHandler = refuse
+    try:
+        with open(path, "rb") as fh:
+            left = PEEK_BYTES
+            while left > 0:
+                chunk = fh.read(min(65536, left))
+                left -= len(chunk)
+                parser.Parse(chunk, not chunk)
+                if not chunk:
+                    break
+    except _Found as found:
+        return bool(found.args[0])
+    except (OSError, xml.parsers.expat.ExpatError):
+        pass
+    return False
 
 
 def _fail(exc: XmlProblem, path: str) -> InvalidTestCase:

@@ -185,10 +185,10 @@ def test_stop_ends_the_run_with_the_oracles_verdict() -> None:
     data = case(ramp_x(), entry("L", duration=30), criteria=[crit("F", "final", "x >= 5"), crit("P", "record", "x < 9")],
                 signals={"x": 0}, stop=[{"when": "x >= 6"}])  # fmt: skip
     report, lines = traced(data)
-    # x >= 6 first holds after the tick at 1.2 (R writes 6 then); the stop is checked before the entries: at 1.3
-    assert report.verdict == "pass" and report.duration == 1.3
+    # x >= 6 first holds on the tick at 1.2 (R writes 6 then): the stop, checked again after the entries, ends it then
+    assert report.verdict == "pass" and report.duration == 1.2
     assert results(report)["L"][0] == "stopped"
-    assert report.execute[1].message == "stopped by stop[0] at 1.3 s"
+    assert report.execute[1].message == "stopped by stop[0] at 1.2 s"
     assert [o.verdict for o in report.oracles] == ["pass", "pass"]
     assert lines[-1].endswith("end pass")
     data["oracle"]["criteria"][0]["expect"] = "x >= 7"
@@ -199,8 +199,8 @@ def test_stop_with_delay_and_edge() -> None:
     data = case(ramp_x(), entry("L", duration=30), signals={"x": 0},
                 stop=[{"when": "x > 3", "edge": "rising", "delay": 0.5}])  # fmt: skip
     report = run(load(data))
-    # rising seen at 0.8 (x written at 0.7 after the stop's check): due at 1.3
-    assert report.verdict == "pass" and report.duration == 1.3
+    # rising seen at 0.7 (x written at 0.7, seen by the stop's check after the entries): due at 1.2
+    assert report.verdict == "pass" and report.duration == 1.2
 
 
 def test_a_when_reads_another_entrys_state_from_the_next_tick() -> None:

@@ -412,6 +412,14 @@ class Controlled(py_trees.decorators.Decorator, Lean):
         """(Its :meth:`tick` decides; py_trees' ``Decorator`` asks every decorator for one.)"""
         return self.decorated.status
 
+    def _fired(self, now: float) -> StopCondition | None:
+        """The first stop due now (every condition evaluated: each keeps its own edge and delay)."""
+        fired = None
+        for stop, condition in zip(self.stops, self.conditions):
+            if condition.due(self.env, now, self.client) and fired is None:
+                fired = stop
+        return fired
+
     @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         if self.status != _RUNNING:
@@ -499,7 +507,8 @@ class Controlled(py_trees.decorators.Decorator, Lean):
 
 
 class StopGuard(py_trees.decorators.Decorator, Lean):
-    """The case's ``stop``: around the execute subtree, checked at the start of every tick, before any entry.
+    """The case's ``stop``: around the execute subtree, checked at the start of every tick, before any entry, and
+    again after the entries have ticked (a signal an entry wrote on this tick ends the run on this tick).
 
     When one of its conditions is due, the execute subtree is halted (running entries are ``stopped``) and this
     node succeeds, so the execute subtree is done: ``final`` criteria without ``at`` are evaluated on this tick,
@@ -523,25 +532,32 @@ class StopGuard(py_trees.decorators.Decorator, Lean):
         """(Its :meth:`tick` decides; py_trees' ``Decorator`` asks every decorator for one.)"""
         return self.decorated.status
 
+    def _fired(self, now: float) -> StopCondition | None:
+        """The first stop due now (every condition evaluated: each keeps its own edge and delay)."""
+        fired = None
+        for stop, condition in zip(self.stops, self.conditions):
+            if condition.due(self.env, now, self.client) and fired is None:
+                fired = stop
+        return fired
+
     @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         if self.status != _RUNNING:
             self.initialise()
         env = self.env
         now = env.now()
-        fired = None
-        for stop, condition in zip(self.stops, self.conditions):
-            if condition.due(env, now, self.client) and fired is None:
-                fired = stop
+        fired = self._fired(now)
+        if fired is None:
+            yield from _tick(self.decorated)
+            new_status = self.decorated.status
+            if new_status == _RUNNING:  # again after the entries: what they wrote on this tick ends it on this tick
+                fired = self._fired(now)
         if fired is not None:
             if self.decorated.status == _RUNNING:
                 self.decorated.stop(_INVALID)
             self.feedback_message = f"{fired.label} fired at {now:g} s"
             env.note_stop(fired.label, now)
             new_status = _SUCCESS
-        else:
-            yield from _tick(self.decorated)
-            new_status = self.decorated.status
         if new_status != _RUNNING:
             self.stop(new_status)
         self.status = new_status

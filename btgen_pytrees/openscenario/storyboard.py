@@ -1,25 +1,29 @@
 """The storyboard as the case's timeline: one entry per element, the triggers as control-flow keys.
 
-ASAM OpenSCENARIO 1.2, clause 7.6 "Storyboard" (1.0: 8.6) and its state machine of storyboard
-elements (7.6.1: standby, running, complete; start/end/stop transitions):
+ASAM OpenSCENARIO XML 1.3, clauses 8.3 "Execution" and 8.4 "Storyboard element execution" (1.2: 7.6,
+1.0: 8.6), the state machine of storyboard elements (standby, running, complete; start, end, stop and
+skip transitions):
 
 * **Story, Act, ManeuverGroup, Maneuver, Event** each become an entry (a ``wait`` of 0 s, so no
   tick is lost), named ``Story S``, ``Act A``, ... in every view. A child comes ``after`` its
   parent: it can start only while the parent runs. An Act's and an Event's ``StartTrigger``
   become their entry's ``when``/``edge``/``delay`` (:mod:`.conditions`).
 * **Actions** of an Event become entries ``after`` the Event's entry, one per actor of the
-  ManeuverGroup, so they start on the tick the Event starts (7.6.4: all actions of an event start
-  together).
-* **State** (7.6.1): an element some ``StoryboardElementStateCondition`` names, and every Event,
-  gets a state signal (``0`` standby, ``1`` running, ``2`` complete) set by ``set`` entries on the
-  ticks it starts and completes (an element completes when all its children have: join ``all``).
-* **Event priority** (7.6.4): ``override`` (1.0's ``overwrite``) stops the other events of the
-  maneuver that are running (the entry's ``stops``); ``parallel`` runs beside them; ``skip`` waits
-  until no other event of the maneuver runs (documented: the standard skips it instead).
-* **maximumExecutionCount** of an Event: N copies of its entries, each after the one before has
-  completed, each waiting for the StartTrigger again (an event counts as complete after its N
-  executions). A ManeuverGroup's larger than 1 is refused.
-* **The Storyboard's StopTrigger** (7.6.2) is the case's top-level ``stop``: the run ends when it fires.
+  ManeuverGroup, so they start on the tick the Event starts (8.4.1).
+* **Executions** (8.3.2, 8.4.2.1): an Event's ``maximumExecutionCount`` N gives N copies of its entries,
+  each after the one before is over, each waiting for the StartTrigger again; a ManeuverGroup's M gives M
+  copies of its maneuvers in a row (it has no trigger). Between two executions the element is in standby.
+* **State** (8.4): every Event, and an element a ``StoryboardElementStateCondition`` names, gets a state
+  signal (``0`` standby, ``1`` running, ``2`` complete; ``-1`` before its parent starts when a condition
+  reads its standbyState) set by ``set`` entries on the ticks it starts and ends - standby again when
+  executions are left, complete after the last (an element ends when all its children have: join
+  ``all``). A transition a condition reads (start, end, skip) is a boolean signal that turns true on its
+  first occurrence.
+* **Event priority** (8.4.2.2): ``override`` (1.0's ``overwrite``) stops the other events of the
+  maneuver that are running (the entry's ``stops``); ``parallel`` runs beside them; ``skip``: an event
+  triggered while another event of its maneuver runs does not start - two racing entries after its
+  trigger, one for "none running", one for "skipped" - and the skip counts as an execution.
+* **The Storyboard's StopTrigger** is the case's top-level ``stop``: the run ends on the tick it fires.
 """
 
 from __future__ import annotations
@@ -42,7 +46,9 @@ STATES = ("startTransition", "endTransition", "stopTransition", "skipTransition"
           "standbyState")  # fmt: skip
 MAX_EXECUTIONS = 100
 """Largest ``maximumExecutionCount`` of an Event (each execution is a copy of its entries)."""
-_SUPPORTED_STATES = {"startTransition": ">= 1", "runningState": "== 1", "endTransition": "== 2", "completeState": "== 2"}
+_SUPPORTED_STATES = {"startTransition": "", "endTransition": "", "skipTransition": "", "runningState": "== 1",
+                     "completeState": "== 2", "standbyState": "== 0"}  # fmt: skip
+_QUIET = "@@quiet@@"  # no other event of the maneuver running: filled in once the maneuver's events are known
 
 _BAD = re.compile(r"[^A-Za-z0-9_-]")
 
@@ -73,6 +79,29 @@ class Element:
     actions: list[str] = field(default_factory=list)  # entry ids of an action element / an event's actions
     state: str | None = None  # the state signal, when one is needed
     markers: list[str] = field(default_factory=list)  # an event's entry per execution
+    executions: list["Execution"] = field(default_factory=list)
+    transitions: dict[str, str] = field(default_factory=dict)  # start/end/skip -> its signal, when one is needed
+    entry_points: list[dict[str, Any]] = field(default_factory=list)  # its first entry in each execution of its parent
+    standby: bool = False  # a condition reads its standbyState
+
+
+@dataclass
+class Execution:
+    """One execution of an element: it runs from the start of the entry ``start`` and is over when every entry
+    of ``over`` has succeeded. ``last``: its end is completeState (else standbyState: executions are left).
+    An event's execution has its ``marker`` (the entry with the StartTrigger), ``done`` (its actions ended)
+    and, with priority skip, ``skip`` (the entry that skips it) and the two ``branches`` racing."""
+
+    start: str
+    over: list[str]
+    last: bool = True
+    skip: str | None = None
+    done: dict[str, Any] | None = None
+    marker: dict[str, Any] = field(default_factory=dict)
+    branches: list[dict[str, Any]] = field(default_factory=list)
+    next: dict[str, Any] | None = None  # the first entry of the next execution (it comes after this one's end)
+    seal: dict[str, Any] | None = None  # the entry that ends the parent's execution (it comes after this one's end)
+    written: bool = False  # its state's set entries are written
 
 
 class Timeline:
@@ -98,7 +127,10 @@ class Timeline:
         self.motion: Any = None  # what an action needs beyond itself for its leaf (.motion), set once the Init is read
         self.actions = ActionWriter(scope, entities, self._variable, controller)
         self.events: list[Element] = []
-        self.state_refs: list[tuple[str, str, Node, str]] = []  # (type, name, node, placeholder)
+        self.state_refs: list[tuple[str, str, Node, str, str]] = []  # (type, name, node, placeholder, state)
+        self.copy = ""  # the execution of the maneuver groups around, in the names of the entries ("(G 2 of 3)")
+        self.repeating = False  # building the trigger of an element executed more than once
+        self.written = False  # the states' set entries are written (write_states)
 
     # -- signals ---------------------------------------------------------------------------------
     def signal(self, name: str, value: Any) -> str:
@@ -268,6 +300,8 @@ class Timeline:
         self.elements.append(story)
         for act in node.all("Act"):
             self.act(act, story)
+        story.executions.append(Execution(story.id, [x for a in story.children for x in a.executions[-1].over] or [story.id]))
+        story.entry_points.append(e)
         self._rescope(scope_before)
 
     def _rescope(self, scope: Scope) -> None:
@@ -280,10 +314,12 @@ class Timeline:
         e = self.marker("Act", name, [story.id])
         e.update(self.trigger(node.child("StartTrigger"), [story.id], e["id"]))
         act.id = e["id"]
+        act.entry_points.append(e)
         self.elements.append(act)
         first = len(self.entries)
         for group in node.all("ManeuverGroup"):
             self.group(group, act)
+        act.executions.append(Execution(act.id, [x for g in act.children for x in g.executions[-1].over] or [act.id]))
         stop = node.child("StopTrigger")
         if stop is not None:  # 7.6.2: when it fires, the act's running children stop (the entry's 'stops')
             inside = [x["id"] for x in self.entries[first:]]
@@ -294,10 +330,12 @@ class Timeline:
                        stops=inside, **keys)  # fmt: skip
 
     def group(self, node: Node, act: Element) -> None:
+        """A ManeuverGroup, executed ``maximumExecutionCount`` times in a row (8.3.2: each execution starts when
+        the one before is over; it has no StartTrigger): one copy of its maneuvers per execution."""
         name = self.scope.text(node, "name") or "group"
         count = self.scope.integer(node, "maximumExecutionCount", 1)
-        if count != 1:
-            raise XmlProblem(node, f"maximumExecutionCount {count} is not supported (1 is)")
+        if not 1 <= count <= MAX_EXECUTIONS:
+            raise XmlProblem(node, f"maximumExecutionCount {count} must be between 1 and {MAX_EXECUTIONS}")
         group = Element("maneuverGroup", name, "", node, act)
         act.children.append(group)
         actors = node.need_child("Actors")
@@ -309,21 +347,41 @@ class Timeline:
             if actor not in self.entities:
                 raise XmlProblem(ref, f"entityRef={actor!r} names no entity (entities: {', '.join(self.entities)})")
             names.append(actor)
-        e = self.marker("ManeuverGroup", name, [act.id])
-        group.id = e["id"]
         self.elements.append(group)
-        for child in node.children:
-            if child.tag == "Maneuver":
-                child.use()
-                self.maneuver(child, group, names, self.scope)
-            elif child.tag == "CatalogReference":
-                child.use()
-                entry, inner = self.catalogs.resolve("ManeuverCatalog", child, self.scope)
-                if entry.tag != "Maneuver":
-                    raise XmlProblem(child, f"{entry.tag} is not a Maneuver")
-                self.maneuver(entry, group, names, inner)
+        after, outer = [act.id], self.copy
+        repeating = self.repeating
+        for run in range(count):
+            self.copy = outer if count == 1 else f"{outer}{' ' if outer else ''}({name} {run + 1} of {count})"
+            self.repeating = repeating or count > 1
+            label = name if count == 1 else f"{name} ({run + 1} of {count})"
+            e = self.entry(name, f"ManeuverGroup {label}", "constraint", "wait", {"duration": 0}, after)
+            if group.executions:
+                group.executions[-1].next = e
+            if run == 0:
+                group.id = e["id"]
+                group.entry_points.append(e)
+            k = 0
+            for child in node.children:
+                if child.tag == "Maneuver":
+                    child.use()
+                    self.maneuver(child, group, names, self.scope, k, e["id"])
+                    k += 1
+                elif child.tag == "CatalogReference":
+                    child.use()
+                    entry, inner = self.catalogs.resolve("ManeuverCatalog", child, self.scope)
+                    if entry.tag != "Maneuver":
+                        raise XmlProblem(child, f"{entry.tag} is not a Maneuver")
+                    self.maneuver(entry, group, names, inner, k, e["id"])
+                    k += 1
+            these = [x for m in group.children for x in m.executions[-1].over] or [e["id"]]
+            over = self.entry(f"{name}-over", f"ManeuverGroup {label} over", "constraint", "wait", {"duration": 0}, these, join="all" if len(these) > 1 else None)
+            for m in group.children:
+                m.executions[-1].seal = over
+            group.executions.append(Execution(e["id"], [over["id"]], last=run == count - 1))
+            after = [over["id"]]
+        self.copy, self.repeating = outer, repeating
 
-    def maneuver(self, node: Node, group: Element, actors: list[str], scope: Scope) -> None:
+    def maneuver(self, node: Node, group: Element, actors: list[str], scope: Scope, index: int, start: str) -> None:
         before = self.scope
         if scope is not before:
             self._rescope(scope)
@@ -333,50 +391,84 @@ class Timeline:
             inner.declare(declarations)
             self._rescope(inner)
         name = self.scope.text(node, "name") or "maneuver"
-        maneuver = Element("maneuver", name, "", node, group)
-        group.children.append(maneuver)
-        e = self.marker("Maneuver", name, [group.id])
-        maneuver.id = e["id"]
-        self.elements.append(maneuver)
-        events = [(self.event(ev, maneuver, actors), ev) for ev in node.all("Event")]
-        for element, ev in events:
+        if index < len(group.children):  # a further execution of the maneuver group: the same element
+            maneuver = group.children[index]
+        else:
+            maneuver = Element("maneuver", name, "", node, group)
+            group.children.append(maneuver)
+            self.elements.append(maneuver)
+        e = self.entry(name, f"Maneuver {name}" + (f" {self.copy}" if self.copy else ""), "constraint", "wait", {"duration": 0}, [start])
+        if not maneuver.id:
+            maneuver.id = e["id"]
+        maneuver.entry_points.append(e)
+        nodes = node.all("Event")
+        executions = []
+        for k, ev in enumerate(nodes):
+            existing = maneuver.children[k] if k < len(maneuver.children) else None
+            executions.append(self.event(ev, maneuver, actors, e["id"], existing, skippable=len(nodes) > 1))
+        over = [x for these in executions for x in these[-1].over] or [e["id"]]
+        maneuver.executions.append(Execution(e["id"], over))
+        for k, ev in enumerate(nodes):
+            element = maneuver.children[k]
             priority = self.scope.choice(ev, "priority", ("override", "overwrite", "skip", "parallel"), "parallel")
-            others = [o for o, _ in events if o is not element]
-            for marker in (x for x in self.entries if x["id"] in element.markers):  # every execution's
+            others = [o for o in maneuver.children if o is not element]
+            for execution in executions[k]:
                 if priority in ("override", "overwrite") and others:
-                    marker["stops"] = [a for o in others for a in o.actions]
-                elif priority == "skip" and others:
-                    quiet = " && ".join(f"{self.state_of(o)} != 1" for o in others)
-                    marker["when"] = f"({marker['when']}) && {quiet}" if "when" in marker else quiet
+                    execution.marker["stops"] = [a for o in others for a in o.actions]
+            quiet = " && ".join(f"{self.state_of(o)} != 1" for o in others) or "true"
+            for execution in executions[k]:
+                for branch in execution.branches:
+                    branch["when"] = branch["when"].replace(_QUIET, quiet)
         self._rescope(before)
 
-    def event(self, node: Node, maneuver: Element, actors: list[str]) -> Element:
-        """An Event, its actions, once per execution: ``maximumExecutionCount`` N gives N copies, each
-        after the one before has completed, each waiting for the StartTrigger again (7.6.4)."""
+    def event(self, node: Node, maneuver: Element, actors: list[str], start: str, event: "Element | None",
+              skippable: bool) -> list["Execution"]:  # fmt: skip
+        """An Event, its actions, once per execution: ``maximumExecutionCount`` N gives N copies, each after the
+        one before is over, each waiting for the StartTrigger again (8.4.2.1). Returns this copy's executions."""
         name = self.scope.text(node, "name") or "event"
         count = self.scope.integer(node, "maximumExecutionCount", 1)
         if not 1 <= count <= MAX_EXECUTIONS:
             raise XmlProblem(node, f"maximumExecutionCount {count} must be between 1 and {MAX_EXECUTIONS}")
-        event = Element("event", name, "", node, maneuver)
-        maneuver.children.append(event)
-        self.elements.append(event)
-        self.events.append(event)
-        elements: dict[int, Element] = {}
-        after, join = [maneuver.id], None
+        priority = self.scope.choice(node, "priority", ("override", "overwrite", "skip", "parallel"), "parallel")
+        skips = priority == "skip" and skippable
+        if event is None:
+            event = Element("event", name, "", node, maneuver)
+            maneuver.children.append(event)
+            self.elements.append(event)
+            self.events.append(event)
+            self.state_of(event)  # every event has a state: the default criterion reads it
+        elements = {k: a for k, a in enumerate(event.children)}
+        after: list[str] = [start]
+        executions: list[Execution] = []
+        repeating = self.repeating
+        self.repeating = repeating or count > 1
         for run in range(count):
             label = name if count == 1 else f"{name} ({run + 1} of {count})"
-            e = self.marker("Event", label, after, join=join)
+            label += f" {self.copy}" if self.copy else ""
+            e = self.entry(name, f"Event {label}", "constraint", "wait", {"duration": 0}, after)
             e.update(self.trigger(node.child("StartTrigger"), after, e["id"]))
-            if run == 0:
+            if not event.id:
                 event.id = e["id"]
+            if run == 0:
+                event.entry_points.append(e)
             event.markers.append(e["id"])
+            begin, skip, branches = e["id"], None, []
+            if skips:  # 8.4.2.2: triggered while another event of the maneuver runs, it is skipped (not started)
+                race = identifier(f"{e['id']}-priority", self.ids)
+                go = self.entry(f"{e['id']}-go", f"Event {label} starts (no other event of its maneuver running)", "constraint",
+                                "wait", {"duration": 0}, [e["id"]], when=_QUIET, race=race)  # fmt: skip
+                skipped = self.entry(f"{e['id']}-skip", f"Event {label} skipped (another event of its maneuver running)",
+                                     "constraint", "wait", {"duration": 0}, [e["id"]], when=f"not ({_QUIET})", race=race)  # fmt: skip
+                begin, skip, branches = go["id"], skipped["id"], [go, skipped]
             these: list[str] = []
             for k, action in enumerate(node.all("Action")):
                 aname = self.scope.text(action, "name") or "action"
                 if k not in elements:
                     elements[k] = Element("action", aname, "", action, event)
                     event.children.append(elements[k])
+                    self.elements.append(elements[k])
                 element = elements[k]
+                mine: list[str] = []
                 body = action.only()
                 if body.tag == "PrivateAction":
                     if not actors:
@@ -384,46 +476,109 @@ class Timeline:
                     for actor in actors:
                         kind, params = self.actions.private(body, actor)
                         text = f"Action {aname}" + (f" ({actor})" if len(actors) > 1 else "")
-                        a = self.lowered(body, actor, kind, params, aname if len(actors) == 1 else f"{aname}-{actor}", text, [e["id"]])
-                        element.actions.append(a["id"])
-                        these.append(a["id"])
+                        a = self.lowered(body, actor, kind, params, aname if len(actors) == 1 else f"{aname}-{actor}", text, [begin])
+                        mine.append(a["id"])
                 elif body.tag == "GlobalAction":
                     inner = body.only()
                     if inner.tag in ("VariableAction", "ParameterAction"):
                         kind, params = self.actions.variable_action(inner)
                     else:
                         raise XmlProblem(inner, f"{inner.tag} is not supported (VariableAction, ParameterAction are)")
-                    a = self.entry(aname, f"Action {aname}", "behavior", kind, params, [e["id"]])
-                    element.actions.append(a["id"])
-                    these.append(a["id"])
+                    a = self.entry(aname, f"Action {aname}", "behavior", kind, params, [begin])
+                    mine.append(a["id"])
                 else:
                     raise XmlProblem(body, f"{body.tag} is not supported (PrivateAction, GlobalAction are)")
+                if not element.id:
+                    element.id = mine[0]
+                element.actions.extend(mine)
+                event.actions.extend(mine)
+                element.executions.append(Execution(begin, mine))
+                these.extend(mine)
             if not these:
                 raise XmlProblem(node, "an Event needs at least one Action")
-            after, join = these, "all" if len(these) > 1 else None
-        for element in elements.values():
-            element.id = element.actions[0]
-            event.actions.extend(element.actions)
-            self.elements.append(element)
-        return event
+            done = self.entry(f"{e['id']}-done", f"Event {label} ended", "constraint", "wait", {"duration": 0}, these, join="all")
+            over = done
+            if skip is not None:
+                over = self.entry(f"{e['id']}-over", f"Event {label} over", "constraint", "wait", {"duration": 0},
+                                  [done["id"], skip], join="any")  # fmt: skip
+            execution = Execution(begin, [over["id"]], last=run == count - 1, skip=skip, done=done, marker=e, branches=branches)
+            for element in elements.values():
+                element.executions[-1].seal = done  # the event ends after its actions' states
+            ended = self._state_sets(event, execution, e["id"], f"event {label}")
+            execution.over = [ended["id"]]  # what follows the execution follows its state
+            event.executions.append(execution)
+            executions.append(execution)
+            after = [ended["id"]]
+        self.repeating = repeating
+        return executions
 
     # -- states ----------------------------------------------------------------------------------
     def state_of(self, element: Element) -> str:
-        """The state signal of *element* (0 standby, 1 running, 2 complete), its set entries added once."""
+        """The state signal of *element* (0 standby, 1 running, 2 complete; -1 before it is first in standby,
+        when a condition reads its standbyState); its ``set`` entries are written by :meth:`write_states`."""
         if element.state is None:
+            if self.written:
+                raise RuntimeError(f"the state of {element.kind} {element.name} is asked for after the states were written")
             element.state = self.signal(f"state_{element.kind}_{element.name}", 0)
-            start = [element.id] if element.kind != "action" else [element.parent.id]  # type: ignore[union-attr]
-            started = self.entry(f"{element.id}-started", f"{element.kind} {element.name} running", "behavior", "set",
-                                 {"signal": element.state, "value": 1}, start)  # fmt: skip
-            # after its start's too: an element that completes on the tick it starts is running, then complete
-            self.entry(f"{element.id}-complete", f"{element.kind} {element.name} complete", "behavior", "set",
-                       {"signal": element.state, "value": 2}, [*self._leaves(element), started["id"]], join="all")  # fmt: skip
         return element.state
 
-    def _leaves(self, element: Element) -> list[str]:
-        if element.kind in ("action", "event"):
-            return list(element.actions)
-        return [a for c in element.children for a in self._leaves(c)] or [element.id]
+    def transition_of(self, element: Element, transition: str) -> str:
+        """A boolean signal that turns true on the first ``transition`` (start, end, skip) of *element*."""
+        if transition not in element.transitions:
+            element.transitions[transition] = self.signal(f"{transition}_{element.kind}_{element.name}", False)
+        return element.transitions[transition]
+
+    def _state_sets(self, element: Element, ex: "Execution", tag: str, text: str) -> dict[str, Any]:
+        """The ``set`` entries of *element*'s state for one execution: running on its start, standby or complete
+        when it is over; what comes after the execution (its ``next``, its ``seal``) comes after that."""
+        assert element.state is not None
+        started = self.entry(f"{tag}-running", f"{text} running", "behavior", "set", {"signal": element.state, "value": 1}, [ex.start])
+        value, word = (2, "complete") if ex.last else (0, "standby")
+        if ex.done is not None and ex.skip is not None:  # it ends after its start's set, or is skipped
+            ex.done["after"].append(started["id"])
+            after, join = list(ex.over), None
+        else:  # after its start's set too: one that ends on the tick it starts is running, then over
+            after, join = [*ex.over, started["id"]], "all"
+        ended = self.entry(f"{tag}-{word}", f"{text} {word}", "behavior", "set", {"signal": element.state, "value": value},
+                           after, join=join)  # fmt: skip
+        if ex.next is not None:  # the next execution after this one's state: running after standby
+            ex.next["after"] = [ended["id"]]
+            ex.next.pop("join", None)
+        if ex.seal is not None:  # what closes the parent's execution comes after this state too
+            ex.seal["after"].append(ended["id"])
+            ex.seal["join"] = "all"
+        ex.written = True
+        return ended
+
+    def write_states(self) -> None:
+        """The ``set`` entries of every state and transition signal asked for, now that every execution is known."""
+        self.written = True
+        for element in self.elements:
+            many = len(element.executions) > 1
+            for k, ex in enumerate(element.executions):
+                tag = f"{element.id}-{k + 1}" if many else element.id
+                text = f"{element.kind} {element.name}" + (f" (execution {k + 1})" if many else "")
+                if element.state is not None and not ex.written:
+                    self._state_sets(element, ex, tag, text)
+                for transition, signal in element.transitions.items():
+                    if transition == "start":
+                        after = [ex.start]
+                    elif transition == "end":
+                        after = [ex.done["id"]] if ex.done is not None else list(ex.over)
+                    elif ex.skip is not None:
+                        after = [ex.skip]
+                    else:
+                        continue
+                    self.entry(f"{tag}-{transition}", f"{text} {transition}Transition", "behavior", "set",
+                               {"signal": signal, "value": True}, after, join="all" if len(after) > 1 else None)  # fmt: skip
+            if element.state is not None:  # 8.3: standby from its parent's start (again in each of its executions)
+                if element.standby:
+                    self.signals[element.state] = -1  # not yet in standby: its parent has not started
+                for point in element.entry_points[0 if element.standby else 1:]:
+                    wait = self.entry(f"{point['id']}-standby", f"{element.kind} {element.name} standby", "behavior", "set",
+                                      {"signal": element.state, "value": 0}, point.get("after", []), join=point.get("join"))  # fmt: skip
+                    point["after"] = [wait["id"]]
+                    point.pop("join", None)
 
     def _state_expression(self, kind: str, name: str, state: str, node: Node) -> str:
         if kind not in ELEMENT_TYPES:
@@ -432,24 +587,42 @@ class Timeline:
             raise XmlProblem(node, f"state {state!r} is not one of {', '.join(STATES)}")
         if state not in _SUPPORTED_STATES:
             raise XmlProblem(node, f"state {state} is not supported ({', '.join(_SUPPORTED_STATES)} are)")
+        if state.endswith("Transition") and self.repeating:
+            raise XmlProblem(node, f"a {state} in the trigger of an element executed more than once is not supported "
+                                   "(a transition is read as 'has happened': it would start every further execution at once)")  # fmt: skip
+        if state == "standbyState" and kind == "action":
+            raise XmlProblem(node, "standbyState of an action is not supported (of an event, maneuver, group, act or story it is)")
         placeholder = f"@@state{len(self.state_refs)}@@"
-        self.state_refs.append((kind, name, node, placeholder))
-        return f"{placeholder} {_SUPPORTED_STATES[state]}"
+        self.state_refs.append((kind, name, node, placeholder, state))
+        return f"{placeholder}"
 
     def resolve_states(self) -> None:
-        """Replace the placeholders of state conditions by the named elements' state signals (the
-        elements may be written after the conditions that name them)."""
-        for kind, name, node, placeholder in self.state_refs:
+        """Replace the placeholders of state conditions by the named elements' state and transition signals (the
+        elements may be written after the conditions that name them), then write the signals' ``set`` entries."""
+        for kind, name, node, placeholder, state in self.state_refs:
             found = [el for el in self.elements if el.kind == kind and el.name == name]
             if not found:
                 names = sorted({el.name for el in self.elements if el.kind == kind})
                 raise XmlProblem(node, f"no {kind} named {name!r}" + (f" ({', '.join(names)})" if names else ""))
             if len(found) > 1:
                 raise XmlProblem(node, f"{len(found)} {kind}s are named {name!r}: the reference is ambiguous")
-            signal = self.state_of(found[0])
+            element = found[0]
+            if state.endswith("Transition"):
+                transition = state[: -len("Transition")]
+                if transition == "skip" and not any(ex.skip for ex in element.executions):
+                    text = "false"  # 8.4.2.2: only an event of priority skip in a maneuver of several events is ever skipped
+                else:
+                    text = self.transition_of(element, transition)
+            else:
+                if state == "standbyState":
+                    element.standby = True
+                text = f"{self.state_of(element)} {_SUPPORTED_STATES[state]}"
             for holder in [*self.entries, *self.stop]:
                 if "when" in holder and placeholder in holder["when"]:
-                    holder["when"] = holder["when"].replace(placeholder, signal)
+                    holder["when"] = holder["when"].replace(placeholder, text)
+        for element in self.events:
+            self.state_of(element)
+        self.write_states()
 
 
 def _keys(expect: str, edge: str, delay: float) -> dict[str, Any]:

@@ -16,10 +16,31 @@ project makes fails the suite.
 * ``<!-- sample -->`` is a session: each line ``$ python -m btgen_pytrees ARGS`` followed by its output;
 * ``<!-- sample file: PATH -->`` is the file PATH of this repository, as it is;
 * ``<!-- sample (NAME = the block above): ARGS -->`` runs with the doc's previous code block as the
-  file NAME (a case shown in the doc, run as it is shown).
+  file NAME (a case shown in the doc, run as it is shown);
+* ``<!-- sample pytest: ARGS -->`` is the output of ``pytest ARGS``, after a line ``$ pytest ARGS``
+  when the block starts so. It runs as ``python -m pytest -p no:randomly -p no:cacheprovider ARGS``
+  in a child process (``COLUMNS=80``, ``PY_COLORS=0``, no ``PYTEST_*``, ``CI`` or ``BUILD_NUMBER``
+  variable - on a CI server pytest does not shorten its summary lines -, this repository first on
+  ``PYTHONPATH``). ARGS must hold ``-q``: pytest's header names the machine (its Python,
+  plugins, paths). The duration pytest ends with (``1 failed in 0.52s``) is left out
+  (``1 failed``): a time is never the same twice.
 
-Commands run in this process, from the repository's root (or a scratch directory holding NAME).
-Text is compared exactly.
+Before the ``:``, ``(NAME = SOURCE, NAME = SOURCE...)`` runs the command in a scratch directory holding
+each file NAME (a relative path; folders are made), made from SOURCE: ``the block above`` (the doc's
+previous code block), ``the 2nd block above`` (the one before it, and so on), or a repository path
+(``examples/fig1_failing.json``). Without it, the command runs from the repository's root (where a
+pytest sample runs under this project's own pytest configuration, ``pyproject.toml`` and ``conftest.py``).
+
+**Excerpts.** ARGS may end with `` | `` and a rule that keeps a part of the output, never an edit by
+hand:
+
+* ``| lines REGEX`` keeps the lines in which REGEX (Python's ``re.search``) matches;
+* ``| section TITLE`` keeps pytest's section TITLE: its title line (``____ TITLE ____``) and the lines
+  up to the next title line (``____ ... ____`` or ``==== ... ====``);
+* ``| usage`` keeps argparse's usage, the lines up to the first blank line (a command's synopsis).
+
+``lines`` and ``section`` show each run of lines left out as one line ``...``. A rule that keeps
+nothing is an error. Commands other than pytest run in this process. Text is compared exactly.
 
 **Pictures** (:data:`PICTURES`, recorded in ``docs/images/pictures.json``). Rendered pictures are
 not byte-stable across machines: Chromium's screenshots differ with its version and fonts,
@@ -52,6 +73,7 @@ import os
 import pathlib
 import re
 import shlex
+import subprocess
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -61,10 +83,14 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 IMAGES = ROOT / "docs" / "images"
 RECORD = IMAGES / "pictures.json"
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-SAMPLE = re.compile(r"^<!-- sample(?: \((?P<input>[\w.-]+) = the block above\))?(?: file: (?P<file>\S+)|: (?P<args>.+?))? -->\n"
+SAMPLE = re.compile(r"^<!-- sample(?P<pytest> pytest)?(?: \((?P<inputs>[^)]+)\))?(?: file: (?P<file>\S+)|: (?P<args>.+?))? -->\n"
                     r"(?P<fence>```\w*\n)(?P<body>.*?)^```", re.S | re.M)  # fmt: skip
 FENCE = re.compile(r"^```\w*\n(.*?)^```", re.S | re.M)
 PROMPT = "$ python -m btgen_pytrees "
+INPUT = re.compile(r"(?P<name>[\w.-]+(?:/[\w.-]+)*) = (?:the (?:(?P<nth>\d+)(?:st|nd|rd|th) )?block above|(?P<path>[\w.-]+(?:/[\w.-]+)*))")
+EXCERPT = re.compile(r"(?P<args>.*?)(?: \| (?P<rule>lines|section|usage)(?: (?P<what>.+))?)?")
+TITLE = re.compile(r"(?:_{3,}|={3,}) (?P<title>.*?) (?:_{3,}|={3,})")
+DURATION = re.compile(r" in \d+(?:\.\d+)?s(?: \(\d+:\d\d:\d\d\))?$")
 
 
 def timeline_case(n: int = 500) -> dict[str, Any]:
@@ -104,12 +130,18 @@ def fig1_fast() -> dict[str, Any]:
 
 @contextlib.contextmanager
 def inside(directory: pathlib.Path) -> Iterator[None]:
-    before = os.getcwd()
+    """Run from *directory*, in a terminal 80 columns wide (argparse's help wraps at its width)."""
+    before, columns = os.getcwd(), os.environ.get("COLUMNS")
     os.chdir(directory)
+    os.environ["COLUMNS"] = "80"
     try:
         yield
     finally:
         os.chdir(before)
+        if columns is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = columns
 
 
 def cli(args: list[str], cwd: pathlib.Path = ROOT) -> str:
@@ -122,7 +154,63 @@ def cli(args: list[str], cwd: pathlib.Path = ROOT) -> str:
     return both.buffer.getvalue().decode("utf-8")  # type: ignore[attr-defined]
 
 
+def pytest_output(args: list[str], cwd: pathlib.Path = ROOT) -> str:
+    """What ``pytest ARGS`` prints from *cwd* (a child process; see the module's docstring), its duration left out."""
+    if not {"-q", "--quiet"} & set(args):
+        raise ValueError(f"a pytest sample needs -q (pytest's header names the machine): {shlex.join(args)}")
+    env = {name: value for name, value in os.environ.items()
+           if not name.startswith("PYTEST_") and name not in ("CI", "BUILD_NUMBER")}  # on CI pytest does not shorten lines
+    env.update(COLUMNS="80", PY_COLORS="0", PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:randomly", "-p", "no:cacheprovider", *args],
+                          cwd=cwd, env=env, capture_output=True, encoding="utf-8", timeout=300, check=False)  # fmt: skip
+    lines = (done.stdout + done.stderr).splitlines()
+    if lines:
+        lines[-1] = DURATION.sub("", lines[-1])
+    return "".join(line + "\n" for line in lines)
+
+
 # -- sample outputs ---------------------------------------------------------------------------------------
+
+
+def excerpt(text: str, rule: str | None, what: str | None) -> str:
+    """The part of *text* that *rule* keeps (``lines REGEX``, ``section TITLE``, ``usage``: the module's docstring)."""
+    if rule is None:
+        return text
+    lines = text.splitlines()
+    if rule == "usage":
+        kept = lines[:lines.index("")] if "" in lines else lines
+        return "".join(line + "\n" for line in kept)
+    if rule == "lines":
+        keep = [re.search(what or "", line) is not None for line in lines]
+    else:
+        keep, inside_it = [], False
+        for line in lines:
+            title = TITLE.fullmatch(line)
+            inside_it = title["title"] == what if title else inside_it
+            keep.append(inside_it)
+    if not any(keep):
+        raise ValueError(f"'{rule} {what}' keeps no line of:\n{text}")
+    shown, before = [], True
+    for line, kept_line in zip(lines, keep):
+        if kept_line or before:
+            shown.append(line if kept_line else "...")
+        before = kept_line
+    return "".join(line + "\n" for line in shown)
+
+
+def inputs(match: re.Match[str]) -> dict[str, str]:
+    """The files a sample runs with, by name: ``(NAME = SOURCE, ...)`` (the module's docstring)."""
+    if not match["inputs"]:
+        return {}
+    above = FENCE.findall(match.string[:match.start()])
+    files = {}
+    for spec in match["inputs"].split(", "):
+        found = INPUT.fullmatch(spec)
+        if found is None or ".." in found["name"].split("/"):
+            raise ValueError(f"not NAME = the block above, the Nth block above or a repository path: {spec!r}")
+        files[found["name"]] = ((ROOT / found["path"]).read_text(encoding="utf-8") if found["path"]
+                                else above[-int(found["nth"] or 1)])  # fmt: skip
+    return files
 
 
 def sample_text(match: re.Match[str]) -> str:
@@ -130,13 +218,19 @@ def sample_text(match: re.Match[str]) -> str:
     if match["file"]:
         return (ROOT / match["file"]).read_text(encoding="utf-8")
     if match["args"]:
-        prompt = PROMPT + match["args"] + "\n" if match["body"].startswith(PROMPT) else ""
-        if not match["input"]:
-            return prompt + cli(shlex.split(match["args"]))
-        above = FENCE.findall(match.string[:match.start()])
+        parts = EXCERPT.fullmatch(match["args"])
+        assert parts is not None  # every text matches
+        args, run = (parts["args"], pytest_output) if match["pytest"] else (parts["args"], cli)
+        typed = ("$ pytest " if match["pytest"] else PROMPT) + args
+        prompt = typed + "\n" if match["body"].startswith("$ ") else ""
+        files = inputs(match)
+        if not files:
+            return prompt + excerpt(run(shlex.split(args)), parts["rule"], parts["what"])
         with tempfile.TemporaryDirectory(prefix="btgen-sample-") as scratch:
-            (pathlib.Path(scratch) / match["input"]).write_text(above[-1], encoding="utf-8")
-            return prompt + cli(shlex.split(match["args"]), pathlib.Path(scratch))
+            for name, text in files.items():
+                (pathlib.Path(scratch) / name).parent.mkdir(parents=True, exist_ok=True)
+                (pathlib.Path(scratch) / name).write_text(text, encoding="utf-8")
+            return prompt + excerpt(run(shlex.split(args), pathlib.Path(scratch)), parts["rule"], parts["what"])
     text = ""
     for line in match["body"].splitlines():
         if line.startswith(PROMPT):
@@ -146,7 +240,7 @@ def sample_text(match: re.Match[str]) -> str:
 
 def sumo_missing(match: re.Match[str]) -> bool:
     """Whether the sample runs a SUMO case where libsumo is not installed (it cannot be made here)."""
-    return "sumo" in (match["args"] or match["body"] if not match["file"] else "") and importlib.util.find_spec("libsumo") is None
+    return "sumo" in ((match["inputs"] or "") + (match["args"] or match["body"]) if not match["file"] else "") and importlib.util.find_spec("libsumo") is None
 
 
 def samples(write: bool = False, skip: Callable[[str], None] | None = None) -> list[str]:

@@ -33,14 +33,46 @@ def test_every_sample_output_is_what_its_command_prints() -> None:
 
 def test_the_samples_are_found_and_a_stale_one_is_told(tmp_path: pathlib.Path, monkeypatch: Any) -> None:
     marked = {doc.name: len(pictures.SAMPLE.findall(doc.read_text(encoding="utf-8"))) for doc in pictures.DOCS}
-    assert marked["README.md"] >= 2 and marked["sumo.md"] >= 1 and marked["format.md"] >= 1 and marked["sweeps.md"] >= 1
+    assert marked["README.md"] >= 2 and marked["sumo.md"] >= 1 and marked["format.md"] >= 1 and marked["sweeps.md"] >= 2
+    assert marked["pytest.md"] >= 4 and marked["falsify.md"] >= 1
     doc = tmp_path / "doc.md"
     doc.write_text("<!-- sample: examples/fig1.json --format matrix -->\n```text\n   B1 C1\n```\n\n"
-                   "<!-- sample file: examples/fig1.json -->\n```json\n{}\n```\n", encoding="utf-8")  # fmt: skip
+                   "<!-- sample file: examples/fig1.json -->\n```json\n{}\n```\n\n"
+                   "<!-- sample: falsify --help | usage -->\n```text\nfalsify SWEEP.json [--budget N]\n```\n\n"
+                   '```json\n{"name": "d", "tick": 0.1, "timeout": 1, "execute": [{"id": "A", "kind": "behavior", '
+                   '"action": "hold", "params": {"duration": 0.1}}]}\n```\n\n```text\nnot a case\n```\n\n'
+                   "<!-- sample (f.json = examples/fig1_failing.json, cases/b.json = the 2nd block above): "
+                   "validate f.json cases/b.json | lines ok: -->\n```text\n$ python -m btgen_pytrees\n```\n", encoding="utf-8")  # fmt: skip
     monkeypatch.setattr(pictures, "DOCS", [doc])
-    assert pictures.samples() == ["doc.md: examples/fig1.json --format matrix", "doc.md: examples/fig1.json"]
+    assert pictures.samples() == ["doc.md: examples/fig1.json --format matrix", "doc.md: examples/fig1.json",
+                                  "doc.md: falsify --help | usage", "doc.md: validate f.json cases/b.json | lines ok:"]  # fmt: skip
     assert pictures.samples(write=True) and pictures.samples() == []
-    assert "B1  0  1  1  0  0  0" in doc.read_text(encoding="utf-8")
+    made = doc.read_text(encoding="utf-8")
+    assert "B1  0  1  1  0  0  0" in made
+    assert "```text\nusage: python -m btgen_pytrees falsify [-h]" in made and "  SWEEP  " not in made  # the usage alone
+    # files from the repository and from the 2nd block above, shown from the prompt, the last line left out as "..."
+    assert ("```text\n$ python -m btgen_pytrees validate f.json cases/b.json\nf.json: ok: 6 entries, 3 criteria\n"
+            "cases/b.json: ok: 1 entry, 0 criteria\n...\n```") in made  # fmt: skip
+
+
+def test_an_excerpt_is_made_by_its_rule_and_a_rule_that_keeps_nothing_is_an_error() -> None:
+    """``lines`` and ``section`` mark each run of left-out lines with one ``...``; ``usage`` is the first paragraph."""
+    out = ("F.    [100%]\n===== FAILURES =====\n_____ a_exit _____\na_exit: ERROR - it ended\n\nmore\n"
+           "_____ b[x=1] _____\nb: FAIL\n===== short test summary info =====\nFAILED a\n")  # fmt: skip
+    assert pictures.excerpt(out, None, None) == out
+    assert pictures.excerpt(out, "section", "a_exit") == "...\n_____ a_exit _____\na_exit: ERROR - it ended\n\nmore\n...\n"
+    assert pictures.excerpt(out, "section", "b[x=1]") == "...\n_____ b[x=1] _____\nb: FAIL\n...\n"
+    assert pictures.excerpt(out, "lines", "^F|FAIL") == "F.    [100%]\n===== FAILURES =====\n...\nb: FAIL\n...\nFAILED a\n"
+    assert pictures.excerpt(out, "usage", None) == "F.    [100%]\n===== FAILURES =====\n_____ a_exit _____\na_exit: ERROR - it ended\n"
+    with pytest.raises(ValueError, match="keeps no line"):
+        pictures.excerpt(out, "section", "c")
+    assert pictures.EXCERPT.fullmatch("-k 'a or b' x.json -q | lines a|b")["args"] == "-k 'a or b' x.json -q"  # type: ignore[index]
+    assert pictures.EXCERPT.fullmatch("x.json -q")["rule"] is None  # type: ignore[index]
+    assert [pictures.DURATION.sub("", line) for line in ("1 failed, 2 passed in 0.52s", "30 tests collected in 12s",
+                                                          "1 error in 61.20s (0:01:01)", "nothing in 3s here")] == [
+        "1 failed, 2 passed", "30 tests collected", "1 error", "nothing in 3s here"]  # fmt: skip
+    with pytest.raises(ValueError, match="needs -q"):
+        pictures.pytest_output(["--collect-only"])
 
 
 def test_every_picture_of_the_docs_is_made_by_the_script() -> None:

@@ -18,12 +18,13 @@ project makes fails the suite.
 * ``<!-- sample (NAME = the block above): ARGS -->`` runs with the doc's previous code block as the
   file NAME (a case shown in the doc, run as it is shown);
 * ``<!-- sample pytest: ARGS -->`` is the output of ``pytest ARGS``, after a line ``$ pytest ARGS``
-  when the block starts so. It runs as ``python -m pytest -p no:randomly -p no:cacheprovider ARGS``
-  in a child process (``COLUMNS=80``, ``PY_COLORS=0``, no ``PYTEST_*``, ``CI`` or ``BUILD_NUMBER``
-  variable - on a CI server pytest does not shorten its summary lines -, this repository first on
-  ``PYTHONPATH``). ARGS must hold ``-q``: pytest's header names the machine (its Python,
-  plugins, paths). The duration pytest ends with (``1 failed in 0.52s``) is left out
-  (``1 failed``): a time is never the same twice.
+  when the block starts so. It runs in a child process as ``python -m pytest -p no:randomly -p
+  no:cacheprovider -p no:hypothesispytest ARGS`` (pytest's own order, no cache, and not Hypothesis'
+  plugin, which no sample uses and which costs a second of CPU a run), with ``COLUMNS=80``,
+  ``PY_COLORS=0``, without the ``PYTEST_*``, ``CI`` and ``BUILD_NUMBER`` variables (on a CI server
+  pytest does not shorten its summary lines), this repository first on ``PYTHONPATH``. ARGS must
+  hold ``-q``: pytest's header names the machine (its Python, plugins, paths). The duration pytest
+  ends with (``1 failed in 0.52s``) is left out (``1 failed``): a time is never the same twice.
 
 Before the ``:``, ``(NAME = SOURCE, NAME = SOURCE...)`` runs the command in a scratch directory holding
 each file NAME (a relative path; folders are made), made from SOURCE: ``the block above`` (the doc's
@@ -161,7 +162,7 @@ def pytest_output(args: list[str], cwd: pathlib.Path = ROOT) -> str:
     env = {name: value for name, value in os.environ.items()
            if not name.startswith("PYTEST_") and name not in ("CI", "BUILD_NUMBER")}  # on CI pytest does not shorten lines
     env.update(COLUMNS="80", PY_COLORS="0", PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")])))
-    done = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:randomly", "-p", "no:cacheprovider", *args],
+    done = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:randomly", "-p", "no:cacheprovider", "-p", "no:hypothesispytest", *args],
                           cwd=cwd, env=env, capture_output=True, encoding="utf-8", timeout=300, check=False)  # fmt: skip
     lines = (done.stdout + done.stderr).splitlines()
     if lines:

@@ -75,9 +75,12 @@ REQUIREMENTS: dict[str, dict[str, Any]] = {
     # G[0,80] ((G[0,20] y2 - y1 <= 20) or (F[0,20] y5 - y4 >= 40))
     "CC3": {"id": "CC3", "type": "temporal", "name": "G[0,80] ((G[0,20] y2 - y1 <= 20) or (F[0,20] y5 - y4 >= 40))",
             "expect": "always[0, 80](always[0, 20](y2 - y1 <= 20) || eventually[0, 20](y5 - y4 >= 40))"},
-    # G[0,65] F[0,30] G[0,20] (y5 - y4 >= 8)
-    "CC4": {"id": "CC4", "type": "temporal", "name": "G[0,65] F[0,30] G[0,20] (y5 - y4 >= 8)",
-            "expect": "always[0, 65](eventually[0, 30](always[0, 20](y5 - y4 >= 8)))"},
+    # G[0,65] F[0,30] G[0,5] (y5 - y4 >= 8): CC4 as FalStar's configuration (ERATOMMSD/falstar
+    # falstar/resource/configuration/qest2019-journal/instance1/cc.cfg), FalCAuN's 2024 script
+    # (MasWag/FalCAuN-ARCH-COMP CC/CC4.main.kts: alw_[0,65] ev_[0,30] alw_[0,5]) and STGEM's 2023 setup state
+    # it; a G[0,20] seen elsewhere reaches 115 s, past the competition's 100 s runs
+    "CC4": {"id": "CC4", "type": "temporal", "name": "G[0,65] F[0,30] G[0,5] (y5 - y4 >= 8)",
+            "expect": "always[0, 65](eventually[0, 30](always[0, 5](y5 - y4 >= 8)))"},
     # G[0,72] F[0,8] ((G[0,5] y2 - y1 >= 9) -> (G[5,20] y5 - y4 >= 9))
     "CC5": {"id": "CC5", "type": "temporal", "name": "G[0,72] F[0,8] ((G[0,5] y2 - y1 >= 9) -> (G[5,20] y5 - y4 >= 9))",
             "expect": "always[0, 72](eventually[0, 8](always[0, 5](y2 - y1 >= 9) -> always[5, 20](y5 - y4 >= 9)))"},
@@ -86,9 +89,9 @@ REQUIREMENTS: dict[str, dict[str, Any]] = {
             "name": "G[0,50] (y2 - y1 > 7.5 and y3 - y2 > 7.5 and y4 - y3 > 7.5 and y5 - y4 > 7.5)",
             "expect": "y2 - y1 > 7.5 && y3 - y2 > 7.5 && y4 - y3 > 7.5 && y5 - y4 > 7.5"},
 }
-HORIZON = {"CC1": 100, "CC2": 100, "CC3": 100, "CC4": 115, "CC5": 100, "CCx": 50}
-"""Seconds a run must cover: the competition simulates 100 s; CC4's formula reaches 115 s, so its runs
-go on to 115 s with the last input values held (a window past the run's end is not judged here)."""
+HORIZON = {"CC1": 100, "CC2": 100, "CC3": 100, "CC4": 100, "CC5": 100, "CCx": 50}
+"""Seconds a run must cover: the competition simulates 100 s (every formula's windows end by then); CCx's
+runs stop at 50 s, where its window ends."""
 
 
 class Cars:

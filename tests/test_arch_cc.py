@@ -89,3 +89,12 @@ def test_the_plugin_in_a_tree_is_the_model_and_judges_the_requirements() -> None
 def test_a_search_falsifies_cc1() -> None:
     search = arch_cc.search("CC1", "random", 1, budget=12)
     assert search.first_failure is not None and search.first_failure <= 12
+
+
+def test_cc4_is_the_competitions_formula_judged_within_the_100_s_run() -> None:
+    """CC4 = G[0,65] F[0,30] G[0,5] (y5 - y4 >= 8): its windows end by 100 s, so a 100 s run judges it (at rest
+    the followers' 10 m hold: robustness 10 - 8 = 2)."""
+    assert arch_cc.HORIZON["CC4"] == 100
+    report = _report("CC4", 0.0, 0.0)
+    assert report.duration == 100.0 and report.verdict == "pass"
+    assert report.oracles[0].margin == pytest.approx(2.0)

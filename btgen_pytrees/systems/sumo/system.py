@@ -73,6 +73,9 @@ ATTRIBUTES = ("speed", "accel", "x", "y", "lane", "lateral", "distance", "gap", 
 """The signals of each vehicle, ``<vehicle>.<attribute>``."""
 ROAD_ATTRIBUTES = ("ref_x", "ref_y", "heading", "road", "lane_id", "s", "t", "offset", "still", "end_of_road")
 """The further signals of each entity of a case on an OpenDRIVE road, ``<entity>.<attribute>`` (docs/opendrive.md)."""
+_SUMO_ROAD = frozenset(("still", "end_of_road"))
+"""Road signals of SUMO's own state (speed, lane position): they need no OpenDRIVE pose and have a value while the
+entity is in the network, also where its reference point is on no lane of the road."""
 PAIR_ATTRIBUTES = ("distance", "distance_free", "dx", "dy", "dx_free", "dy_free", "ds", "dt", "ds_free", "dt_free",
                    "dlane", "headway", "headway_free", "ttc", "ttc_free")  # fmt: skip
 """The signals of each ordered pair of entities A, B on an OpenDRIVE road, ``A.B.<attribute>`` (docs/opendrive.md)."""
@@ -292,13 +295,14 @@ class SumoSystem:
         self.exact: frozenset[str] = frozenset(n for n, e in road.entities.items() if not e.controller) if road else frozenset()
         """Entities driven storyboard-exactly: no car-following, no lane changes of their own (speed and lane-change mode 0)."""
         self.poses: dict[str, Pose] = {}  # entity -> its pose on the road at the last step read (road cases)
+        self._posed: dict[str, tuple[int, Pose | None]] = {}  # entity -> (the step, its pose then): pose()'s memo
         self._since: dict[str, float] = {}  # entity -> time since which it stands still
         self.home: dict[str, tuple[str, int]] = {n: (p.pose.road, p.pose.lane) for n, p in road.placed.items()} if road else {}
         """Entity -> the OpenDRIVE road and lane its lane offsets refer to: the lane its position named, then the
         lane of its last lane change or teleport (its reference point may be in another lane: an offset)."""
         self.commanded: dict[str, float] = {}  # entity -> the speed last commanded (storyboard-exact: what it drives)
         self.lateral: dict[str, float] = {}  # entity -> road t its reference point moves to in SUMO's next step
-        self._road_keys: list[tuple[str, dict[str, str]]] = []
+        self._road_keys: list[tuple[str, dict[str, str], bool]] = []
         self._pair_keys: list[tuple[str, str, dict[str, str]]] = []
         self.scenario = scenario
         self.options = dict(options)
@@ -579,26 +583,32 @@ class SumoSystem:
         self._road_keys, self._pair_keys = [], []
         if self.road is not None:
             named = [v for v in self.tracked if v in self.road.entities]
-            posed: set[str] = set()
-            for vid in named:
+            for vid in named:  # (vid, its keys, whether any needs its OpenDRIVE pose)
                 keys = {a: k for a in ROAD_ATTRIBUTES if (k := key(f"{vid}.{a}")) is not None}
-                self._road_keys.append((vid, keys))
                 if keys:
-                    posed.add(vid)
+                    self._road_keys.append((vid, keys, any(a not in _SUMO_ROAD for a in keys)))
             for a in named:
                 for b in named:
                     keys = {x: k for x in PAIR_ATTRIBUTES if a != b and (k := key(f"{a}.{b}.{x}")) is not None}
                     if keys:
                         self._pair_keys.append((a, b, keys))
-                        posed.update((a, b))
-            self._road_keys = [(vid, keys) for vid, keys in self._road_keys if vid in posed]
             for vid in named:  # (the action leaves ask where entities are in OpenDRIVE terms, too)
                 variables, leader = self._subscribe[vid]
                 self._subscribe[vid] = (tuple(dict.fromkeys(variables + _ROAD)), leader)
 
     # -- an OpenDRIVE road's signals (docs/opendrive.md) --------------------------------
     def pose(self, vid: str) -> Pose | None:
-        """Where entity *vid*'s reference point is now, in OpenDRIVE terms (None when it is not on the road)."""
+        """Where entity *vid*'s reference point is now, in OpenDRIVE terms (None when it is not on the road).
+
+        Worked out once per step (the signals and the action leaves ask alike; SUMO's state is that of the step)."""
+        memo = self._posed.get(vid)
+        if memo is not None and memo[0] == self.steps:
+            return memo[1]
+        pose = self._locate(vid)
+        self._posed[vid] = (self.steps, pose)
+        return pose
+
+    def _locate(self, vid: str) -> Pose | None:
         r = self.results.get(vid)
         if r is None or self.road is None or _LANE_ID not in r:
             return None
@@ -622,10 +632,9 @@ class SumoSystem:
         assert self.road is not None
         results, now = self.results, self.time
         poses: dict[str, Pose | None] = {}
-        for vid, keys in self._road_keys:
-            pose = poses[vid] = self.pose(vid)
+        for vid, keys, posed in self._road_keys:
             r = results.get(vid)
-            if pose is None or r is None:
+            if r is None or _LANE_ID not in r:
                 for k in keys.values():
                     storage.pop(k, None)
                 self._since.pop(vid, None)
@@ -638,6 +647,18 @@ class SumoSystem:
             route = self.road.routes.get(vid, ())
             end = (lane is not None and bool(route) and lane.edge == route[-1]
                    and lane.length - r[_LANE_POSITION] <= max(speed * self.tick_length, 1e-3))  # fmt: skip
+            if not posed:  # only what SUMO's own state says (still, end_of_road): no OpenDRIVE pose needed
+                for a, k in keys.items():
+                    storage[k] = now - since if a == "still" else end
+                continue
+            pose = poses[vid] = self.pose(vid)
+            if pose is None:  # in the network, on no lane of the road: no road coordinates
+                for a, k in keys.items():
+                    if a in _SUMO_ROAD:
+                        storage[k] = now - since if a == "still" else end
+                    else:
+                        storage.pop(k, None)
+                continue
             values = {"ref_x": pose.x, "ref_y": pose.y, "heading": pose.h, "road": _road_number(pose.road, self.road),
                       "lane_id": pose.lane, "s": pose.s, "t": pose.t, "offset": pose.offset, "still": now - since,
                       "end_of_road": end}  # fmt: skip

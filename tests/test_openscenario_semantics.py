@@ -195,6 +195,28 @@ def test_a_skip_event_triggered_while_another_runs_is_skipped_not_delayed(tmp_pa
     assert report["verdict"] == "pass"
 
 
+def test_an_overridden_event_and_a_stopped_acts_elements_are_complete_by_a_stop_transition(tmp_path):
+    """8.4.2: an event overridden while it runs, and what a stopped Act holds, move to completeState with a
+    stopTransition (the default criterion passes them); an event in standby is not overridden."""
+    events = (event("Slow", hold("SlowHold", 3), trigger(at_time("greaterOrEqual", 1)))
+              + event("Idle", set_var("idle", "w", 1), trigger(variable_is("v", 1)))
+              + event("Urgent", set_var("urgent", "v", 2), trigger(at_time("greaterOrEqual", 2)), priority="override"))
+    act_stop = f"<StopTrigger><ConditionGroup>{at_time('greaterOrEqual', 3)}</ConditionGroup></StopTrigger>"
+    stopped = story("t", event("Later", hold("LaterHold", 5), trigger(at_time("greaterOrEqual", 1)))
+                    + event("Never", set_var("never", "w", 2), trigger(variable_is("v", 9)))).replace("</Act>", act_stop + "</Act>")
+    seen = story("seen", event("Saw", set_var("saw", "x", 1), trigger(state_is("event", "Slow", "stopTransition"))))
+    text = scenario(story("o", events) + stopped + seen, variables='<VariableDeclaration name="x" variableType="double" value="0"/>')
+    report, rows = run(tmp_path, text)
+    by_name = {e["name"]: e for e in report["execute"]}
+    assert (by_name["Action SlowHold"]["status"], by_name["Action SlowHold"]["end"]) == ("stopped", 2.1)
+    assert series(rows, "state_event_Slow") == [(0.0, 0), (1.0, 1), (2.0, 2)]  # overridden at 2 s
+    assert series(rows, "state_event_Idle") == [(0.0, 0)]  # in standby: not overridden
+    assert series(rows, "var_x") == [(0.0, 0), (2.0, 1)]  # the stopTransition, seen by a trigger
+    assert series(rows, "state_event_Later") == [(0.0, 0), (1.0, 1), (3.0, 2)]  # running when its act stopped
+    assert series(rows, "state_event_Never") == [(0.0, 0), (3.0, 2)]  # in standby when its act stopped
+    assert all(v == "pass" for k, v in verdicts(report).items() if k.startswith("completed-")) and report["verdict"] == "pass"
+
+
 # -- 8.4.2 / 8.2: the storyboard's StopTrigger on an element's state -------------------------------
 
 def test_a_stop_trigger_on_an_elements_state_ends_the_run_on_that_tick(tmp_path):

@@ -20,7 +20,8 @@ skip transitions):
   ``all``). A transition a condition reads (start, end, skip) is a boolean signal that turns true on its
   first occurrence.
 * **Event priority** (8.4.2.2): ``override`` (1.0's ``overwrite``) stops the other events of the
-  maneuver that are running (the entry's ``stops``); ``parallel`` runs beside them; ``skip``: an event
+  maneuver that are running (the entry's ``stops``; their states complete: a stopTransition, as for
+  what an Act's StopTrigger stops); ``parallel`` runs beside them; ``skip``: an event
   triggered while another event of its maneuver runs does not start - two racing entries after its
   trigger, one for "none running", one for "skipped" - and the skip counts as an execution.
 * **The Storyboard's StopTrigger** is the case's top-level ``stop``: the run ends on the tick it fires.
@@ -46,7 +47,7 @@ STATES = ("startTransition", "endTransition", "stopTransition", "skipTransition"
           "standbyState")  # fmt: skip
 MAX_EXECUTIONS = 100
 """Largest ``maximumExecutionCount`` of an Event (each execution is a copy of its entries)."""
-_SUPPORTED_STATES = {"startTransition": "", "endTransition": "", "skipTransition": "", "runningState": "== 1",
+_SUPPORTED_STATES = {"startTransition": "", "endTransition": "", "skipTransition": "", "stopTransition": "", "runningState": "== 1",
                      "completeState": "== 2", "standbyState": "== 0"}  # fmt: skip
 _QUIET = "@@quiet@@"  # no other event of the maneuver running: filled in once the maneuver's events are known
 
@@ -131,6 +132,7 @@ class Timeline:
         self.copy = ""  # the execution of the maneuver groups around, in the names of the entries ("(G 2 of 3)")
         self.repeating = False  # building the trigger of an element executed more than once
         self.written = False  # the states' set entries are written (write_states)
+        self.stoppers: list[tuple[str, list[Element], bool]] = []  # (entry, elements it stops, only running ones)
 
     # -- signals ---------------------------------------------------------------------------------
     def signal(self, name: str, value: Any) -> str:
@@ -326,8 +328,9 @@ class Timeline:
             keys = self.trigger(stop, [act.id], f"{act.id}-stop")
             if not keys:
                 raise XmlProblem(stop, "an Act's StopTrigger needs a condition")
-            self.entry(f"{act.id}-stop", f"StopTrigger of Act {name}", "constraint", "wait", {"duration": 0}, [act.id],
-                       stops=inside, **keys)  # fmt: skip
+            entry = self.entry(f"{act.id}-stop", f"StopTrigger of Act {name}", "constraint", "wait", {"duration": 0},
+                               [act.id], stops=inside, **keys)  # fmt: skip
+            self.stoppers.append((entry["id"], list(_within(act)), False))  # 8.4.2: stopTransition to complete
 
     def group(self, node: Node, act: Element) -> None:
         """A ManeuverGroup, executed ``maximumExecutionCount`` times in a row (8.3.2: each execution starts when
@@ -415,6 +418,7 @@ class Timeline:
             for execution in executions[k]:
                 if priority in ("override", "overwrite") and others:
                     execution.marker["stops"] = [a for o in others for a in o.actions]
+                    self.stoppers.append((execution.start, others, True))  # the running ones: stopTransition
             quiet = " && ".join(f"{self.state_of(o)} != 1" for o in others) or "true"
             for execution in executions[k]:
                 for branch in execution.branches:
@@ -561,6 +565,8 @@ class Timeline:
                 if element.state is not None and not ex.written:
                     self._state_sets(element, ex, tag, text)
                 for transition, signal in element.transitions.items():
+                    if transition == "stop":
+                        continue  # written with the stoppers, below
                     if transition == "start":
                         after = [ex.start]
                     elif transition == "end":
@@ -579,6 +585,21 @@ class Timeline:
                                       {"signal": element.state, "value": 0}, point.get("after", []), join=point.get("join"))  # fmt: skip
                     point["after"] = [wait["id"]]
                     point.pop("join", None)
+        for stopper, targets, running in self.stoppers:
+            for element in targets:
+                if element.state is None:
+                    continue  # nothing reads it
+                # 8.4.2: an overridden event that runs, or an element of a stopped act not yet complete, moves to
+                # completeState with a stopTransition; "if" as a race of the set (with its condition) and a no-op
+                race = identifier(f"{stopper}-{element.id}-stop", self.ids)
+                test = f"{element.state} == 1" if running else f"{element.state} != 2"
+                done = self.entry(f"{stopper}-stops-{element.id}", f"{element.kind} {element.name} stopped", "behavior", "set",
+                                  {"signal": element.state, "value": 2}, [stopper], when=test, race=race)  # fmt: skip
+                self.entry(f"{stopper}-spares-{element.id}", f"{element.kind} {element.name} not stopped", "constraint", "wait",
+                           {"duration": 0}, [stopper], race=race)  # fmt: skip
+                if "stop" in element.transitions:
+                    self.entry(f"{done['id']}-stop", f"{element.kind} {element.name} stopTransition", "behavior", "set",
+                               {"signal": element.transitions["stop"], "value": True}, [done["id"]])  # fmt: skip
 
     def _state_expression(self, kind: str, name: str, state: str, node: Node) -> str:
         if kind not in ELEMENT_TYPES:
@@ -609,6 +630,8 @@ class Timeline:
             element = found[0]
             if state.endswith("Transition"):
                 transition = state[: -len("Transition")]
+                if transition == "stop":
+                    self.state_of(element)  # a stop is seen in the state: running (or standby) to complete
                 if transition == "skip" and not any(ex.skip for ex in element.executions):
                     text = "false"  # 8.4.2.2: only an event of priority skip in a maneuver of several events is ever skipped
                 else:
@@ -623,6 +646,13 @@ class Timeline:
         for element in self.events:
             self.state_of(element)
         self.write_states()
+
+
+def _within(element: Element) -> Any:
+    """*element* and every element below it."""
+    yield element
+    for child in element.children:
+        yield from _within(child)
 
 
 def _keys(expect: str, edge: str, delay: float) -> dict[str, Any]:

@@ -36,8 +36,11 @@ as NumPy's and SciPy's wrappers cost more than these small matrices' arithmetic)
 runs (as in lq-CMA-ES); with ``check`` it is given only when the model ranks its
 own runs (leave-one-out, Kendall's tau of at least :data:`TRUST`); its minimum is
 the best of 1,024 such candidates, half around the best run and half uniform.
-NumPy and SciPy (the ``search`` extra) are imported once, when the first model
-is made (an import statement per batch cost more than the batch's arithmetic).
+NumPy and SciPy (the ``search`` extra) are imported once, when the model first
+proposes a batch (an import statement per batch cost more than the batch's
+arithmetic; SciPy's LAPACK and ``scipy.special`` cost a ``falsify`` process about
+0.15-0.2 s of processor time, which a search ending within its start's runs,
+or a process still starting its workers, does not pay).
 """
 
 from __future__ import annotations
@@ -81,7 +84,6 @@ class Model:
     """The model's state between batches (its length scales) and its draws (the candidates' shifts, :mod:`.qmc`)."""
 
     def __init__(self, draws: Draws):
-        self._np, self._lapack, self._ndtri = _libraries()
         self.draws = draws
         self.scales: Any = None
         self.fitted = 0
@@ -96,7 +98,7 @@ class Model:
         (*first*, if given, is taken first whatever its score: the others spread around it).
         Uniform points when fewer than two runs are known. *told*: how many runs were told in all, when
         *X* is the sampler's choice of them already (the scales' refits follow the runs told)."""
-        np, lapack = self._np, self._lapack
+        np, lapack, ndtri = _libraries()
         draws = self.draws
         told = len(y) if told is None else told
         if len(y) > KEEP:  # the best half and the most recent others, chosen before any array is made (the
@@ -135,7 +137,7 @@ class Model:
         C = np.empty((m + (first is not None), d))
         draws.uniform(C[:m])
         local = C[m - m_local : m]
-        self._ndtri(local, out=local)  # normal(0, 1) points
+        ndtri(local, out=local)  # normal(0, 1) points
         local *= spread
         local += centres  # centre + draw * spread
         np.maximum(local, 0.0, out=local)

@@ -12,8 +12,11 @@ its operands' streams into its own as soon as they allow:
   window extreme kept in Lemire's monotone deque (Lemire 2006, as in Donzé, Ferrère and Maler's efficient
   robust monitoring): each operand value enters and leaves the deque once - amortised O(1) per tick;
 * ``until[a,b]``, ``since[a,b]``: rtamt's definitions, ``max over t' in [t+a, t+b] of min(ψ(t'), min of φ over
-  [t, t'))`` and ``max over t' in [t-b, t-a] of min(ψ(t'), min of φ over (t', t])``: O(b - a + 1) per tick
-  (the window's running minimum, no deque); unbounded ``since`` and past operators: O(1) recurrences;
+  [t, t'))`` and ``max over t' in [t-b, t-a] of min(ψ(t'), min of φ over (t', t])``, split as Donzé, Ferrère
+  and Maler split the bounded until: φ's minimum before the window (a monotone deque) capping a ``[0, b-a]``
+  until over the window, itself a sliding aggregate kept in two stacks whose front is filled by the backward
+  until recurrence - amortised O(1) per tick whatever the window (:meth:`Node._slide`); unbounded ``since``
+  and past operators: O(1) recurrences;
 * ``always`` without a window (to the end of the run): known at the end of the run only (:meth:`Monitor.finish`).
 
 :meth:`Monitor.finish` ends the trace: values not emitted yet are computed on the windows cut at the last
@@ -65,7 +68,7 @@ class Node:
         span: how many samples past ``t`` the value at ``t`` may read (``inf``: to the end of the run)
     """
 
-    __slots__ = ("formula", "children", "low", "high", "span", "values", "update", "_deque", "_next", "_run", "samples")
+    __slots__ = ("formula", "children", "low", "high", "span", "values", "update", "_deque", "_next", "_run", "_run_state", "samples")
 
     def __init__(self, formula: Formula, children: list[Node], tick: float):
         self.formula = formula
@@ -84,6 +87,7 @@ class Node:
         self._deque: deque[int] = deque()
         self._next = 0  # the next operand sample to enter the deque
         self._run = -_INF if op == "once" else _INF  # an unbounded once's / historically's running value
+        self._run_state: list | None = None  # until / since: the two stacks of :meth:`_slide`
         self.update: Callable[[], None] = getattr(self, "_" + op)
 
     # -- one tick: append what the operands now allow ----------------------------------------------------
@@ -181,49 +185,124 @@ class Node:
         self._window_past(False)
 
     def _until(self, end: int | None = None) -> None:
+        """``φ until[a,b] ψ`` at t = ``min(min of φ over [t, t+a), U(t+a))``, U(s) the ``[0, b-a]`` until at s
+        (the minimum over ``[t, t+a)`` caps every t' of the window alike): φ's window minimum in a monotone
+        deque, U a sliding aggregate over ``[s, t+b]`` kept in two stacks (:meth:`_slide`)."""
         out, left, right = self.values, self.children[0].values, self.children[1].values
         a, b = self.low, self.high
         assert b is not None
         known = min(len(left), len(right)) if end is None else end + 1
         t = len(out)
+        dq = self._deque
         while (t + b < known) if end is None else (t <= end):
-            best, run = -_INF, _INF  # run: min of φ over [t, t')
-            for u in range(t, min(t + b, known - 1) + 1):
-                if u >= t + a:
-                    r = right[u]
-                    v = r if r < run else run
-                    if v > best:
-                        best = v
-                lv = left[u]
-                if lv < run:
-                    run = lv
-            out.append(best)
+            s = t + a
+            if s >= known:  # the window lies past the end of the trace
+                out.append(-_INF)
+                t += 1
+                continue
+            cap = _INF
+            if a:  # min of φ over [t, t+a): Lemire's deque over φ
+                j = self._next
+                while j < s:
+                    v = left[j]
+                    while dq and left[dq[-1]] >= v:
+                        dq.pop()
+                    dq.append(j)
+                    j += 1
+                self._next = j
+                while dq[0] < t:
+                    dq.popleft()
+                cap = left[dq[0]]
+            u = self._slide(s, min(t + b, known - 1), True)
+            out.append(u if u < cap else cap)
             t += 1
 
     def _since(self) -> None:
+        """``φ since[a,b] ψ`` at t = ``min(min of φ over (t-a, t], S(t-a))``, S(s) the ``[0, b-a]`` since at s:
+        the mirror of :meth:`_until`; unbounded: ``s(t) = max(ψ(t), min(φ(t), s(t-1)))``."""
         out, left, right = self.values, self.children[0].values, self.children[1].values
         a, b = self.low, self.high
         known = min(len(left), len(right), len(self.samples))
         t = len(out)
+        dq = self._deque
         while t < known:
             if b is None:  # s(t) = max(ψ(t), min(φ(t), s(t-1)))
                 prev = out[-1] if out else -_INF
                 lv, rv = left[t], right[t]
                 v = lv if lv < prev else prev
                 out.append(rv if rv > v else v)
+                t += 1
+                continue
+            cap = _INF
+            if a:  # min of φ over (t-a, t]
+                v = left[t]
+                while dq and left[dq[-1]] >= v:
+                    dq.pop()
+                dq.append(t)
+                while dq[0] <= t - a:
+                    dq.popleft()
+                cap = left[dq[0]]
+            if t - a < 0:
+                out.append(-_INF)
             else:
-                best, run = -_INF, _INF  # run: min of φ over (t', t]
-                for u in range(t, max(t - b, 0) - 1, -1):
-                    if u <= t - a:
-                        r = right[u]
-                        v = r if r < run else run
-                        if v > best:
-                            best = v
-                    lv = left[u]
-                    if lv < run:
-                        run = lv
-                out.append(best)
+                s = self._slide(max(t - b, 0), t - a, False)
+                out.append(s if s < cap else cap)
             t += 1
+
+    def _slide(self, low: int, high: int, future: bool) -> float:
+        """The ``[0, w]`` until (*future*) over the window [*low*, *high*] of samples, or the ``[0, w]`` since
+        whose window it is; each call's window ends at or after the last call's on both sides.
+
+        Both are sliding aggregates of an associative operation on (value, φ's minimum) pairs, a window's
+        until being ``max(U1, min(m1, U2))`` from its two halves' (since: ``max(min(S1, m2), S2)``): two
+        stacks (a queue with aggregates, as Lemire's deque is one for ``min``/``max``). The back holds the
+        aggregate of the samples entered since the last flip; the front, the aggregates of each suffix of
+        the samples before them, worked out backwards at a flip (Donzé, Ferrère and Maler's backward until
+        recurrence). Each sample enters the back once and the front once: amortised O(1) per tick.
+        """
+        left, right = self.children[0].values, self.children[1].values
+        st = self._run_state
+        if st is None:
+            st = self._run_state = [low, low - 1, [], [], -_INF, _INF, low - 1]  # front lo, hi, U, m; back U, m, hi
+        back_u, back_m, back_hi = st[4], st[5], st[6]
+        for j in range(back_hi + 1, high + 1):  # enter the back
+            r, lv = right[j], left[j]
+            if future:  # U = max(U, min(m, ψ(j))), then m = min(m, φ(j))
+                v = r if r < back_m else back_m
+                if v > back_u:
+                    back_u = v
+            else:  # S = max(min(S, φ(j)), ψ(j))
+                v = back_u if back_u < lv else lv
+                back_u = r if r > v else v
+            if lv < back_m:
+                back_m = lv
+        back_hi = high if high > back_hi else back_hi
+        if low > st[1]:  # the front is used up: the back's samples become the front, suffix by suffix
+            n = back_hi - low + 1
+            us, ms = [0.0] * n, [0.0] * n
+            u, m = -_INF, _INF
+            for i in range(n - 1, -1, -1):
+                r, lv = right[low + i], left[low + i]
+                if future:  # U(i) = max(ψ(i), min(φ(i), U(i+1)))
+                    v = lv if lv < u else u
+                    u = r if r > v else v
+                else:  # S(i) = max(min(ψ(i), m(i+1)), S(i+1))
+                    v = r if r < m else m
+                    if v > u:
+                        u = v
+                if lv < m:
+                    m = lv
+                us[i], ms[i] = u, m
+            st[0], st[1], st[2], st[3] = low, back_hi, us, ms
+            back_u, back_m = -_INF, _INF
+        st[4], st[5], st[6] = back_u, back_m, back_hi
+        i = low - st[0]
+        fu, fm = st[2][i], st[3][i]
+        if future:
+            v = fm if fm < back_u else back_u
+            return fu if fu > v else v
+        v = fu if fu < back_m else back_m
+        return back_u if back_u > v else v
 
     # -- the end of the trace -----------------------------------------------------------------------------
     def finish(self, end: int) -> None:

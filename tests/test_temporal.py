@@ -256,6 +256,8 @@ def test_margin_equals_rtamt_verdict_and_decided(interpreter, case):
     reference = interpreter.visit(rtamt_node(f), n)
     margin, expected = ours[anchor], reference[anchor]
     assert margin == expected or abs(margin - expected) <= 1e-9 * max(1.0, abs(expected)), (text(f), margin, expected)
+    for t, value in enumerate(ours):  # every value emitted (each once its window was known), not just the anchor's
+        assert value == reference[t] or abs(value - reference[t]) <= 1e-9 * max(1.0, abs(reference[t])), (text(f), t)
     # the verdict: the margin's sign; on 0, the formula's truth
     verdict = margin > 0 or margin == 0 and holds(monitor.root, anchor)
     assert verdict == truth(f, trace, anchor, n - 1), text(f)
@@ -274,6 +276,49 @@ def test_margin_equals_rtamt_verdict_and_decided(interpreter, case):
         lo, hi = interval(f, trace, anchor, k, None)
         assert (bound_at(monitor, anchor, k, True), bound_at(monitor, anchor, k, False)) == (lo, hi), text(f)
         assert (bound_streamed(monitor, anchor, k, True), bound_streamed(monitor, anchor, k, False)) == (lo, hi), text(f)
+
+
+@st.composite
+def wide_cases(draw):
+    """until/since with windows up to 16 samples, nested one in the other, over traces of 24-72 samples: the
+    sliding aggregates' two stacks flip many times (the formulas above have windows of at most 5 samples)."""
+
+    def operand(depth):
+        if depth == 0 or draw(st.booleans()):
+            return ("atom", (draw(st.sampled_from("xy")), draw(st.sampled_from(sorted(COMPARE))), draw(st.integers(-2, 2))))
+        return wide(depth - 1)
+
+    def wide(depth):
+        op = draw(st.sampled_from(["until", "since"]))
+        low = draw(st.integers(0, 6))
+        return (op, (low, low + draw(st.integers(0, 10))), (operand(depth), operand(depth)))
+
+    f = wide(2)
+    length = draw(st.integers(24, 72))
+    values = st.lists(VALUES, min_size=length, max_size=length)
+    return f, {"x": draw(values), "y": draw(values)}
+
+
+@settings(max_examples=300, deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow])
+@given(wide_cases())
+def test_wide_until_and_since_equal_rtamt_at_every_sample(interpreter, case):
+    """until/since in amortised O(1) (a monotone deque for φ before the window, a two-stack sliding aggregate
+    for the window): every sample's value equals rtamt's, those emitted tick by tick and those the end of the
+    trace cuts (:meth:`Monitor.finish`)."""
+    f, trace = case
+    n = len(trace["x"])
+    monitor = Monitor(parse(text(f)), TICK)
+    emitted = []
+    for t in range(n):
+        monitor.step([e.judge({"x": trace["x"][t], "y": trace["y"][t]})[1] for e in monitor.expressions])
+        emitted.append(len(monitor.root.values))
+    assert emitted[-1] == max(n - int(span(f)), 0)  # each value as soon as its window is known
+    monitor.finish()
+    interpreter.ast.var_object_dict["x"] = trace["x"]
+    interpreter.ast.var_object_dict["y"] = trace["y"]
+    interpreter.ast.offline_results = {}
+    reference = interpreter.visit(rtamt_node(f), n)
+    assert monitor.root.values == pytest.approx(reference, rel=1e-9), text(f)
 
 
 def test_rtamt_text_parser_agrees_on_a_requirement():
@@ -539,6 +584,84 @@ def test_views_carry_temporal_criteria(tmp_path):
     report = run(load(json.loads(path.read_text())))
     assert row_of(report)["oracles"][0]["decided"] == pytest.approx(1.3)
     assert [source for source, _ in report.oracles[0].terms] == ["always[0, 1](x <= 3)", "x <= 3"]
+
+
+def test_plot_marks_a_temporal_violation_at_the_tick_its_explanation_names():
+    """--plot's violation marker (and the red margin line) of a failed temporal criterion sit at the tick the
+    explanation names, with the values read there - not at the horizon, where the verdict came. x ramps 0 to 5
+    over 2 s; ``x <= 1 || x >= 4`` is worst at x = 2.5 (1 s), the horizon is 2 s (x = 5, where it held)."""
+    from btgen_pytrees.run.plot import plot_figure
+
+    loaded = load(case([{"id": "T", "type": "temporal", "expect": "always[0, 2](x <= 1 || x >= 4)"}]))
+    report = run(loaded)
+    oracle = report.oracles[0]
+    assert oracle.verdict == "fail" and oracle.at == pytest.approx(2.0) and oracle.values["x"] == pytest.approx(5.0)
+    assert "always failed at 1 s" in oracle.message and oracle.violation == (pytest.approx(1.0), {"x": pytest.approx(2.5)})
+    assert "violation" not in report.to_dict()["oracles"][0]  # JSON's at/values are the verdict's
+    lines = [line for ax in plot_figure(report, loaded).axes for line in ax.get_lines()]
+    marks = [(list(line.get_xdata()), list(line.get_ydata())) for line in lines if line.get_label() == "_violation"]
+    assert marks == [([pytest.approx(1.0)], [pytest.approx(2.5)])]
+    margins = [(list(line.get_xdata()), list(line.get_ydata())) for line in lines if line.get_label() == "_margin"]
+    assert margins == [([pytest.approx(1.0)] * 2, [1.0, pytest.approx(2.5)]), ([pytest.approx(1.0)] * 2, [4.0, pytest.approx(2.5)])]
+
+
+def test_plot_draws_the_window_from_the_anchor():
+    """--plot's band is the criterion's window: its anchor to its horizon, or to the end of the run for an
+    ``always`` without a window (anchored at 1 s here: the band starts there, not at 0)."""
+    from btgen_pytrees.run.plot import plot_figure
+
+    loaded = load(case([{"id": "B", "type": "temporal", "from": 0.5, "expect": "always[0, 1](x <= 3)"},
+                        {"id": "U", "type": "temporal", "from": 1.0, "expect": "always(x <= 4)"}], tick=0.1))  # fmt: skip
+    report = run(loaded)
+    assert [o.window for o in report.oracles] == [(0.5, 1.5), (1.0, None)]
+    assert "window" not in report.to_dict()["oracles"][0]
+    bands = set()
+    for ax in plot_figure(report, loaded).axes:
+        for patch in ax.patches:
+            if patch.get_label() == "_window":
+                xs = patch.get_patch_transform().transform(patch.get_path().vertices)[:, 0]
+                bands.add((round(float(min(xs)), 6), round(float(max(xs)), 6)))
+    assert bands == {(0.5, 1.5), (1.0, round(report.duration, 6))}
+
+
+@pytest.mark.skipif(not os.environ.get("CI") and importlib.util.find_spec("selenium") is None, reason="selenium missing (CI has it)")
+def test_replay_page_draws_the_window_on_the_signal_plot(tmp_path):
+    """The replay page draws a temporal criterion's window (anchor to horizon) as a band on the curves of the
+    signals its formula reads and of its sub-formulas' robustness - not on other signals - in headless
+    Chromium, where --plot draws it."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from browser import chromium, chromium_present
+
+    from btgen_pytrees import generate
+    from btgen_pytrees.run.replay import replay_html
+
+    if not chromium_present() and not os.environ.get("CI"):
+        pytest.skip("chromium or chromium-driver missing (CI installs them)")
+    data = case([{"id": "T", "type": "temporal", "from": 0.5, "expect": "always[0, 1](x <= 3)"}])
+    loaded = load(data)
+    report = run(loaded)
+    page = replay_html(report, loaded, generate(loaded)).decode("utf-8")
+    shown = json.loads(page.split('<script type="application/json" id="run-data">', 1)[1].split("</script>", 1)[0])
+    assert shown["oracles"][0]["window"] == [0.5, 1.5] and report.duration == pytest.approx(1.5)
+    assert shown["oracles"][0]["reads"] == ["x", "T robustness: always[0, 1](x <= 3)", "T robustness: x <= 3"]
+    path = tmp_path / "t.html"
+    path.write_text(page, encoding="utf-8")
+    with chromium() as driver:
+        driver.get(path.as_uri())
+        assert driver.execute_script("return document.body.dataset.ready") == "1"
+        bands = driver.execute_script(
+            "return Array.from(document.querySelectorAll('#signals tr')).map((row) => [row.dataset.signal,"
+            " Array.from(row.querySelectorAll('rect.window')).map((r) => [r.dataset.criterion, r.getAttribute('class'),"
+            " Number(r.getAttribute('x')), Number(r.getAttribute('width')), r.textContent])])")
+    by_signal = dict((name, rects) for name, rects in bands)
+    assert by_signal["y"] == []
+    x0, x1 = 2 + 236 * (0.5 / 1.5), 2 + 236 * 1.0  # the curve's x axis: 2 px margins, 240 px for the run's 1.5 s
+    for name in ("x", "T robustness: always[0, 1](x <= 3)", "T robustness: x <= 3"):
+        [(criterion, kind, x, width, title)] = by_signal[name]
+        assert criterion == "T" and kind == "window fail" and title == "T window: 0.5 \u2026 1.5 s"
+        assert x == pytest.approx(x0) and x + width == pytest.approx(x1)
 
 
 def test_a_sweeps_verdict_map_and_rows_carry_the_temporal_margin(tmp_path):

@@ -62,6 +62,8 @@ class Outcome:
     margin: float | None = None
     decided: float | None = None
     """A temporal criterion's: the run time of the tick after which its verdict was certain."""
+    violation: tuple[float, dict[str, Any]] | None = None
+    """A failed temporal criterion's: the run time of the tick its explanation names and the values read there."""
 
 
 MAX_SAMPLES = 1000

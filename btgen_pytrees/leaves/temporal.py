@@ -75,6 +75,15 @@ class Temporal(Oracle):
         nodes = self.monitor.nodes[::-1]
         return [(n.formula.source, n.values) for n in nodes[:8]]  # (a re-run makes new lists: no copy)
 
+    def window(self) -> tuple[float, float | None] | None:
+        """The run times of the anchor and the horizon (None: the end of the run), once the anchor is known:
+        the window the views draw."""
+        if self.anchor is None:
+            return None
+        tick, span = self.criterion.tick, self.monitor.root.span
+        start = round(self.anchor * tick, 9)
+        return start, (round((self.anchor + span) * tick, 9) if span != float("inf") else None)
+
     def horizon_text(self, anchor: int) -> str:
         span = self.monitor.root.span
         if span == float("inf"):
@@ -127,7 +136,7 @@ class Temporal(Oracle):
         at = now
         self.outcome = Outcome("pass" if ok else "fail", at, "", values, margin)
         self.outcome.decided = round(first * tick, 9)
-        self.outcome.message = self.why(ok, margin, anchor, first)
+        self.outcome.message, self.outcome.violation = self.why(ok, margin, anchor, first)
         self.feedback_message = self.outcome.message
         return _SUCCESS if ok else _FAILURE
 
@@ -143,42 +152,50 @@ class Temporal(Oracle):
         node = self.entry
         return k if node is not None and node.status != _INVALID else None
 
-    def why(self, ok: bool, margin: float, anchor: int, first: int) -> str:
+    def why(self, ok: bool, margin: float, anchor: int, first: int) -> tuple[str, tuple[float, dict[str, Any]] | None]:
+        """The message, and for a violation the tick its explanation names with the values read there."""
         tick = self.criterion.tick
         head = f"{self.criterion.expect.source} {'held' if ok else 'violated'} at {anchor * tick:.6g} s (margin {format_number(margin)})"
-        reason = "" if ok else explain(self.monitor.root, anchor, tick, self.history)
-        return f"{head}{': ' + reason if reason else ''}; certain after the tick at {first * tick:.6g} s"
+        reason, violation = "", None
+        if not ok:
+            reason, u = explain(self.monitor.root, anchor, tick, self.history)
+            violation = (round(u * tick, 9), dict(self.history[u]) if u < len(self.history) else {})
+        return f"{head}{': ' + reason if reason else ''}; certain after the tick at {first * tick:.6g} s", violation
 
 
-def explain(node: Node, t: int, tick: float, history: list[dict[str, Any]], depth: int = 0) -> str:
+def explain(node: Node, t: int, tick: float, history: list[dict[str, Any]], depth: int = 0) -> tuple[str, int]:
     """Why *node* is false (its robustness < 0, or 0 and false) at sample *t*: the sub-formula and the tick
-    that decided it, followed down to an atom and the values it read.
+    that decided it, followed down to an atom and the values it read; and that tick (the sample whose values
+    the explanation names: ``--plot`` puts the violation's marker there).
 
     For ``always``, the tick of the worst value; for ``eventually``, that it never held in its window and
     its best value; for ``until``/``since``, which side gave out; for ``->``, the premise that held and
     the consequence that failed.
     """
     if depth > 8:
-        return ""
+        return "", t
     op, kids, source = node.formula.op, node.children, node.formula.source
     at = f"{t * tick:.6g} s"
     if op == "atom":
         values = history[t] if t < len(history) else {}
         names = node.formula.atom.ordered_names if node.formula.atom is not None else ()
         shown = ", ".join(f"{n}={format_number(values[n])}" for n in names if n in values)
-        return f"{source} false at {at}" + (f" ({shown})" if shown else "")
+        return f"{source} false at {at}" + (f" ({shown})" if shown else ""), t
     deeper = lambda child, u: explain(child, u, tick, history, depth + 1)  # noqa: E731
     if op == "not":
-        return f"{kids[0].formula.source} held at {at} (margin {format_number(kids[0].values[t])})"
+        return f"{kids[0].formula.source} held at {at} (margin {format_number(kids[0].values[t])})", t
     if op == "and":
         worst = min(kids, key=lambda c: c.values[t])
         return deeper(worst, t)
     if op == "or":
-        return "no side held: " + "; ".join(deeper(c, t) for c in kids)
+        sides = [deeper(c, t) for c in kids]
+        nearest = max(range(len(kids)), key=lambda i: kids[i].values[t])  # the side closest to holding
+        return "no side held: " + "; ".join(text for text, _ in sides), sides[nearest][1]
     if op == "implies":
         premise, consequence = kids
+        why, u = deeper(consequence, t)
         return (f"the premise {premise.formula.source} held at {at} (margin {format_number(premise.values[t])}) "
-                f"and the consequence failed: {deeper(consequence, t)}")  # fmt: skip
+                f"and the consequence failed: {why}"), u  # fmt: skip
     child = kids[0]
     a, b = node.low, node.high
     end = len(child.values) - 1
@@ -190,13 +207,14 @@ def explain(node: Node, t: int, tick: float, history: list[dict[str, Any]], dept
         window = range(0)
     if op in ("always", "historically"):
         u = min(window, key=lambda v: child.values[v])
-        return f"{op} failed at {u * tick:.6g} s: {deeper(child, u)}"
+        why, w = deeper(child, u)
+        return f"{op} failed at {u * tick:.6g} s: {why}", w
     if op in ("eventually", "once"):
         span = f"[{window.start * tick:.6g}, {(window.stop - 1) * tick:.6g}] s" if window else "an empty window"
         if not window:
-            return f"{source}: {span}"
+            return f"{source}: {span}", t
         u = max(window, key=lambda v: child.values[v])
-        return f"{child.formula.source} never held in {span}; its best value {format_number(child.values[u])} at {u * tick:.6g} s"
+        return f"{child.formula.source} never held in {span}; its best value {format_number(child.values[u])} at {u * tick:.6g} s", u
     left, right = kids
     if op == "until":
         top = min(t + (b or 0), len(right.values) - 1)
@@ -204,12 +222,12 @@ def explain(node: Node, t: int, tick: float, history: list[dict[str, Any]], dept
         if not candidates or all(right.values[u] < 0 or right.values[u] == 0 and not holds(right, u) for u in candidates):
             best = max(candidates, key=lambda v: right.values[v]) if candidates else t
             return f"{right.formula.source} never held in [{(t + a) * tick:.6g}, {top * tick:.6g}] s (its best value " \
-                f"{format_number(right.values[best])} at {best * tick:.6g} s)"
+                f"{format_number(right.values[best])} at {best * tick:.6g} s)", best
         first = next(u for u in candidates if right.values[u] > 0 or holds(right, u))
         gave = next((w for w in range(t, first) if left.values[w] < 0 or not holds(left, w)), t)
-        return f"{left.formula.source} gave out at {gave * tick:.6g} s, before {right.formula.source} held at {first * tick:.6g} s"
+        return f"{left.formula.source} gave out at {gave * tick:.6g} s, before {right.formula.source} held at {first * tick:.6g} s", gave
     low = 0 if b is None else max(t - b, 0)
-    return f"{right.formula.source} did not hold in [{low * tick:.6g}, {(t - a) * tick:.6g}] s with {left.formula.source} since"
+    return f"{right.formula.source} did not hold in [{low * tick:.6g}, {(t - a) * tick:.6g}] s with {left.formula.source} since", max(t - a, 0)
 
 
 def ticks_of_anchor(criterion: Criterion) -> int:

@@ -373,7 +373,8 @@ class Collector(py_trees.visitors.VisitorBase):
                 outcome.message, dict(outcome.values), list(getattr(node, "samples", [])),
                 name=criterion.name, group=group, relation=self.case.relation.get(group, "&&"),
                 margin=_margin(getattr(outcome, "margin", None)), decided=getattr(outcome, "decided", None),
-                terms=node.terms() if isinstance(node, Temporal) else [])))  # fmt: skip
+                terms=node.terms() if isinstance(node, Temporal) else [], violation=getattr(outcome, "violation", None),
+                window=node.window() if isinstance(node, Temporal) else None)))  # fmt: skip
         oracles.sort(key=lambda pair: pair[0])
         if verdict == "fail" and not message:
             message = _why_failed(execute, [o for _, o in oracles])

@@ -43,7 +43,7 @@ from ..formulas import formula_bounds
 from ..model import TestCase
 from ..writing import write_file
 from .export import ordered_signals, select
-from .report import Report
+from .report import OracleResult, Report
 from .trace import ENDED
 
 if TYPE_CHECKING:  # pragma: no cover - types only
@@ -137,7 +137,7 @@ def timeline_rows(report: Report, case: TestCase) -> list[Row]:
             after=entry.after, failed_at=result.end if failed else None, message=printable(shorten(result.message)) if failed else ""))  # fmt: skip
     criteria = {c.id: c for c in case.criteria}
     for oracle in report.oracles:
-        start, end = _criterion_span(oracle.type, criteria[oracle.id], oracle.at, oracle.verdict, report.duration)
+        start, end = _criterion_span(oracle, criteria[oracle.id], report.duration)
         failed = oracle.verdict == "fail"
         rows.append(Row(
             "oracle", oracle.id, oracle.type, printable(f"{oracle.id}  {oracle.type}: {oracle.expect}"), start, end,
@@ -145,8 +145,10 @@ def timeline_rows(report: Report, case: TestCase) -> list[Row]:
     return rows
 
 
-def _criterion_span(kind: str, criterion: Any, at: float | None, verdict: str, duration: float) -> tuple[float | None, float | None]:
-    """Where a criterion is drawn: a record over the run, a period over its window, a final at its instant."""
+def _criterion_span(oracle: OracleResult, criterion: Any, duration: float) -> tuple[float | None, float | None]:
+    """Where a criterion is drawn: a record over the run, a period over its window, a final at its instant,
+    a temporal criterion from its anchor to its horizon (cut at the end of the run)."""
+    kind, at, verdict = oracle.type, oracle.at, oracle.verdict
     if kind == "final":
         instant = at if at is not None else criterion.at
         return instant, instant
@@ -155,9 +157,9 @@ def _criterion_span(kind: str, criterion: Any, at: float | None, verdict: str, d
         end = criterion.end if criterion.end is not None else (at if verdict == "pass" and at is not None else duration)
         return start, end
     if kind == "temporal":  # the horizon's window: the anchor to the horizon
-        span = criterion.expect.span
-        if verdict in ("pass", "fail") and at is not None and math.isfinite(span):
-            return max(0.0, at - span), at
+        if oracle.window is not None:
+            start, horizon = oracle.window
+            return start, duration if horizon is None else min(horizon, duration)
         return (criterion.start or 0.0) if criterion.anchor is None else None, duration
     return 0.0, duration
 
@@ -470,11 +472,21 @@ def _draw_panel(ax: Axes, title: str, names: list[str], series: dict[str, list[t
     # the values a failing criterion read, at its time
     for oracle in report.oracles:
         if oracle.verdict == "fail" and oracle.at is not None:
-            for name, value in oracle.values.items():
+            at, read = _violation(oracle)
+            for name, value in read.items():
                 if name in names and isinstance(value, (bool, int, float)):
                     y = names.index(name) + 0.7 * float(value) if kind == "flag" else float(value)
-                    ax.plot([oracle.at], [y], marker="X", markersize=9, color=COLOURS["fail"],
+                    ax.plot([at], [y], marker="X", markersize=9, color=COLOURS["fail"],
                             markeredgecolor="black", zorder=5, label="_violation")  # fmt: skip
+
+
+def _violation(oracle: OracleResult) -> tuple[float, dict[str, Any]]:
+    """Where a failed criterion's violation is drawn, and the values read there: a temporal criterion's at the
+    tick its explanation names (its verdict comes at the horizon), the others' at their verdict."""
+    if oracle.violation is not None:
+        return oracle.violation
+    assert oracle.at is not None
+    return oracle.at, oracle.values
 
 
 def _draw_bounds(ax: Axes, names: list[str], report: Report, case: TestCase) -> None:
@@ -484,7 +496,7 @@ def _draw_bounds(ax: Axes, names: list[str], report: Report, case: TestCase) -> 
         oracle = verdicts.get(criterion.id)
         failed = oracle is not None and oracle.verdict == "fail" and oracle.at is not None
         if criterion.type == "temporal" and oracle is not None:  # the window the formula was judged over
-            start, end = _criterion_span("temporal", criterion, oracle.at, oracle.verdict, report.duration)
+            start, end = _criterion_span(oracle, criterion, report.duration)
             if start is not None and end is not None and end > start:
                 ax.axvspan(start, end, color=COLOURS["fail"] if failed else "#555555", alpha=0.06, label="_window")
         for signal, op, bound in (formula_bounds(criterion.expect) if criterion.type == "temporal" else bounds(criterion.expect)):
@@ -494,9 +506,10 @@ def _draw_bounds(ax: Axes, names: list[str], report: Report, case: TestCase) -> 
             ax.axhline(bound, color=colour, linestyle="--", linewidth=0.9, alpha=0.9, label="_bound")
             ax.annotate(printable(f"{criterion.id}: {signal} {op} {bound:g}"), (0.0, bound), xycoords=("axes fraction", "data"),
                         xytext=(3, 2), textcoords="offset points", fontsize=7, color=colour)  # fmt: skip
-            value = oracle.values.get(signal) if failed else None  # type: ignore[union-attr]
+            at, read = _violation(oracle) if failed else (None, {})  # type: ignore[arg-type]
+            value = read.get(signal)
             if isinstance(value, (bool, int, float)) and math.isfinite(float(value)):
-                ax.plot([oracle.at, oracle.at], [bound, float(value)], color=COLOURS["fail"], linewidth=2.5,  # type: ignore[union-attr]
+                ax.plot([at, at], [bound, float(value)], color=COLOURS["fail"], linewidth=2.5,
                         solid_capstyle="butt", zorder=4, label="_margin")  # fmt: skip
 
 

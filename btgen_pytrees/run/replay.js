@@ -252,6 +252,15 @@
       });
       if (prev !== null) { pts.push((W - 2) + "," + y(prev)); lines.push(pts); }
       const svg = svgEl("svg", { class: "curve", width: W, height: H });
+      for (const o of data.oracles) {  // a temporal criterion's window (anchor to horizon) on what it reads, as --plot draws it
+        if (!o.window || !(o.reads || []).includes(name)) continue;
+        const x0 = 2 + (W - 4) * Math.min(o.window[0] / span, 1), x1 = 2 + (W - 4) * Math.min(o.window[1] / span, 1);
+        const band = svgEl("rect", { class: "window" + (o.verdict === "fail" ? " fail" : ""), x: x0, y: 0, width: Math.max(x1 - x0, 1), height: H });
+        band.dataset.criterion = o.id;
+        const note = svgEl("title", {}); note.textContent = o.id + " window: " + fmt(o.window[0]) + " \u2026 " + fmt(o.window[1]) + " s";
+        band.appendChild(note);
+        svg.appendChild(band);
+      }
       for (const points of lines) svg.appendChild(svgEl("polyline", { points: points.join(" ") }));
       const title = svgEl("title", {}); title.textContent = name + ": " + fmt(lo) + " \u2026 " + fmt(hi); svg.appendChild(title);
       cursorLine = svgEl("line", { y1: 0, y2: H });

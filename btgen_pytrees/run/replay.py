@@ -100,9 +100,10 @@ def _tree_data(root: py_trees.behaviour.Behaviour) -> list[list[Any]]:
     return rows
 
 
-def _page_data(report: Report, root: py_trees.behaviour.Behaviour, depth: int | None, open_nodes: int,
+def _page_data(report: Report, case: TestCase, root: py_trees.behaviour.Behaviour, depth: int | None, open_nodes: int,
                signals: Sequence[str] | None) -> dict[str, Any]:  # fmt: skip
     trace = report.trace
+    case_reads = {c.id: set(c.expect.ordered_names) for c in case.criteria if c.type == "temporal"}
     nodes = _tree_data(root)
     index = {row[4]: i for i, row in enumerate(nodes) if row[4]}
     headline = f"{report.test}: {report.verdict.upper()} after {report.duration:g} s ({plural(report.ticks, 'tick')})"
@@ -129,10 +130,16 @@ def _page_data(report: Report, root: py_trees.behaviour.Behaviour, depth: int | 
         "openNodes": open_nodes,
         "scene": scene.to_data() if scene is not None else None,
     }
-    for o in report.oracles:  # a temporal criterion's sub-formulas' robustness, drawn as series of their own
-        for source, values in o.terms if trace is not None else ():
+    for o, shown in zip(report.oracles, data["oracles"]):  # a temporal criterion's sub-formulas' robustness,
+        series = []  # drawn as series of their own, and its window (anchor to horizon) as a band on them and
+        for source, values in o.terms if trace is not None else ():  # on the signals its formula reads
             changes = [[k, _value(v)] for k, v in enumerate(values) if k == 0 or v != values[k - 1]]
             data["signals"][f"{o.id} robustness: {source}"] = changes
+            series.append(f"{o.id} robustness: {source}")
+        if o.window is not None and trace is not None:
+            start, horizon = o.window
+            shown["window"] = [start, report.duration if horizon is None else min(horizon, report.duration)]
+            shown["reads"] = [n for n in names if n in case_reads.get(o.id, ())] + series
     return data
 
 
@@ -152,7 +159,7 @@ def replay_html(report: Report, case: TestCase, root: py_trees.behaviour.Behavio
     count = sum(1 for _ in walk(root))
     if trace is not None and len(trace.nodes) != count:
         raise ValueError("the report's trace is of another tree")
-    data = _page_data(report, root, max_depth, max_nodes, signals)
+    data = _page_data(report, case, root, max_depth, max_nodes, signals)
     parts = {"TITLE": html.escape(_visible(f"{report.test}: {report.verdict} (replay)")), "STYLE": asset("replay.css"),
              "SCRIPT": asset("replay.js"), "DATA": _script_json(data)}  # fmt: skip
     page = re.sub("@(TITLE|STYLE|SCRIPT|DATA)@", lambda m: parts[m.group(1)], asset("replay.html"))  # one pass: no text is re-read

@@ -87,6 +87,12 @@ class OracleResult:
     """A temporal criterion's: the run time of the tick after which its verdict was certain (JSON: temporal only)."""
     terms: list[tuple[str, list[float]]] = field(default_factory=list, repr=False)
     """A temporal criterion's sub-formulas and their robustness on each tick (the replay page draws them; not in JSON)."""
+    window: tuple[float, float | None] | None = field(default=None, repr=False)
+    """A temporal criterion's anchor and horizon, run times (horizon None: the end of the run), once its anchor
+    was known: the window ``--plot`` and the replay page draw (not in JSON)."""
+    violation: tuple[float, dict[str, Any]] | None = field(default=None, repr=False)
+    """A failed temporal criterion's: the run time of the tick its explanation names and the values read there
+    (``--plot`` marks the violation there; not in JSON: ``at``/``values`` are the verdict's)."""
 
     @property
     def label(self) -> str:
@@ -203,6 +209,8 @@ class Report:
         for oracle in data["oracles"]:
             del oracle["samples"]
             del oracle["terms"]
+            del oracle["violation"]
+            del oracle["window"]
             oracle["values"] = {k: _json_value(v) for k, v in oracle["values"].items()}
             oracle["margin"] = _json_value(oracle["margin"])
             if oracle["type"] != "temporal":

@@ -237,3 +237,33 @@ def test_a_transition_in_the_trigger_of_a_repeated_element_is_refused(tmp_path):
     with pytest.raises(InvalidTestCase) as info:
         read_openscenario(str(tmp_path / "s.xosc"))
     assert "startTransition in the trigger of an element executed more than once is not supported" in info.value.problems[0].message
+
+
+def test_a_trajectory_followed_by_steering_is_refused_not_run_as_positions(tmp_path):
+    """followingMode 'follow' (a controller steering along the path) is not approximated by 'position': the
+    scenario's element and the case's JSON path are refused, exit 2."""
+    from btgen_pytrees import load
+    from btgen_pytrees.cli import main
+    walk = """<Action name="walk"><PrivateAction><RoutingAction><FollowTrajectoryAction>
+      <TrajectoryRef><Trajectory name="path" closed="false"><Shape><Polyline>
+        <Vertex time="0"><Position><LanePosition roadId="1" laneId="-1" s="60" offset="0"/></Position></Vertex>
+        <Vertex time="2"><Position><LanePosition roadId="1" laneId="-1" s="70" offset="0"/></Position></Vertex>
+      </Polyline></Shape></Trajectory></TrajectoryRef>
+      <TimeReference><None/></TimeReference><TrajectoryFollowingMode followingMode="follow"/>
+    </FollowTrajectoryAction></RoutingAction></PrivateAction></Action>"""
+    (tmp_path / "road.xodr").write_text(ROAD)
+    (tmp_path / "s.xosc").write_text(scenario(story("f", event("Walk", walk, trigger(at_time("greaterOrEqual", 1))))))
+    assert main(["validate", str(tmp_path / "s.xosc")]) == 2
+    with pytest.raises(InvalidTestCase) as info:
+        read_openscenario(str(tmp_path / "s.xosc"))
+    assert info.value.problems[0].message == "followingMode 'follow' is not supported ('position' is)"
+    assert "/FollowTrajectoryAction/TrajectoryFollowingMode" in "/".join(map(str, info.value.problems[0].path))
+    case = {"name": "t", "system": {"type": "sumo", "road": str(tmp_path / "road.xodr"),
+                                    "entities": {"Ego": {"position": {"LanePosition": {"roadId": "1", "laneId": -1, "s": 10}}}}},
+            "execute": [{"id": "W", "kind": "behavior", "action": "sumo.trajectory",
+                         "params": {"vehicle": "Ego", "following": "follow", "vertices": [
+                             {"time": 0, "position": {"LanePosition": {"roadId": "1", "laneId": -1, "s": 10}}},
+                             {"time": 2, "position": {"LanePosition": {"roadId": "1", "laneId": -1, "s": 20}}}]}}]}
+    with pytest.raises(InvalidTestCase) as info:
+        load(case)
+    assert [(p.pointer, "'follow' is not one of" in p.message) for p in info.value.problems] == [("/execute/0/params/following", True)]

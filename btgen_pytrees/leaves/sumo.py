@@ -83,7 +83,7 @@ PARAMS: dict[str, dict[str, Any]] = {
     "teleport": _params(["vehicle", "position"], vehicle=_VEHICLE, position=_POSITION),
     "trajectory": _params(["vehicle", "vertices"], vehicle=_VEHICLE,
                           vertices={"type": "array", "minItems": 1, "maxItems": 10000, "items": _VERTEX},
-                          closed={"type": "boolean"}, following={"enum": ["position", "follow"]},
+                          closed={"type": "boolean"}, following={"enum": ["position"]},
                           time_scale=_POSITIVE, time_offset={"type": "number"}, absolute={"type": "boolean"}),
     "follow": {**_params(["vehicle", "entity"], vehicle=_VEHICLE, entity=_ENTITY, distance={"type": "number", "minimum": 0},
                          time_gap={"type": "number", "minimum": 0}, freespace={"type": "boolean"},
@@ -488,8 +488,9 @@ class Trajectory(RoadAction):
     (``absolute``: at that simulation time). Between vertices it moves along the straight segment at the
     segment's speed, heading along it; ``closed`` goes back to the first vertex at the last time plus the
     first segment's duration. Each tick puts it where the polyline says it is at the end of SUMO's next
-    step; its speed is that segment's (SUMO's ``E.speed``), kept after the last vertex. ``following:
-    follow`` (steering along it) is run as ``position``. Succeeds when the last vertex's time is reached."""
+    step; its speed is that segment's (SUMO's ``E.speed``), kept after the last vertex. ``following`` is
+    ``position`` only: ``follow`` (a controller steering along it) is refused at its JSON path, not run as
+    ``position``. Succeeds when the last vertex's time is reached."""
 
     def begin(self, system: SumoSystem) -> None:
         vid, p = self.params["vehicle"], self.params

@@ -305,6 +305,31 @@ def test_counterexample_files_are_named_after_their_point_and_a_budget_of_1e1_is
     assert all(p.stem.startswith("fig1_sweep[top_speed=") for p in cases)
 
 
+@pytest.mark.parametrize(("args", "said"), [
+    (["falsify", "fig1_sweep.json", "--budget", "2.5"], "argument --budget: '2.5' is not a whole number"),
+    (["falsify", "fig1_sweep.json", "--seed", "1e400"], "argument --seed: '1e400' is not a whole number"),
+    (["run", "fig1.json", "--max-work", "2.5e0"], "argument --max-work: '2.5e0' is not a whole number"),
+    (["run", "fig1.json", "--jobs", "nan"], "argument --jobs/-j: 'nan' is not a whole number"),
+    (["validate", "fig1_sweep.json", "--max-variations", "1.5"], "argument --max-variations: '1.5' is not a whole number"),
+])  # fmt: skip
+def test_a_count_on_the_command_line_is_a_whole_number_as_in_a_case_file(
+        work: pathlib.Path, capsys: pytest.CaptureFixture[str], args: list[str], said: str) -> None:  # fmt: skip
+    # a search block's "budget": 1e1 is 10 (above); so is --budget 1e1, and 2.5 is refused, never cut to 2
+    assert cli.main(args) == 2
+    assert f"btgen_pytrees: error: {said}" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not available() and not os.environ.get("CI"),
+                    reason="the 'search' extra is not installed (pip install -e '.[search]'; CI installs it)")  # fmt: skip
+def test_a_budget_of_1e1_on_the_command_line_is_10(work: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["falsify", "fig1_sweep.json", "--budget", "1e1", "--seed", "0e0", "--method", "sobol",
+                     "--jobs", "1"]) in (0, 1)  # fmt: skip
+    out = capsys.readouterr().out
+    assert "budget 10," in out and "10.0" not in out, out
+    assert cli.main(["validate", "fig1_sweep.json", "--max-variations", "1e1"]) == 2  # 28 variations > 10
+    assert "10" in capsys.readouterr().err
+
+
 # -- 35.14: values echoed as they were written --------------------------------------------------------
 
 

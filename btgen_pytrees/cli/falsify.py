@@ -34,7 +34,7 @@ from ..load.variations import format_value
 from ..sweep.runs import file_name
 from ..systems.sumo import keep_simulations, release_simulations, reuse_simulations
 from .checks import check_out_dir, make_out_dir
-from .options import SIDECAR_NOTE, Parents, registry
+from .options import SIDECAR_NOTE, Parents, registry, whole
 from .sweep import add_executor_options, make_executor, run_options
 from .terminal import deliver, err
 
@@ -49,9 +49,9 @@ def add_parser(sub: Any, parents: Parents) -> None:
     parser = sub.add_parser("falsify", parents=[parents.plugin, parents.many], help="search a sweep's parameter box for a failing setting (docs/falsify.md)")
     parser.add_argument("file", metavar="SWEEP", help="a test case with a variations block (its box is searched), or a ParameterValueDistribution (.xosc); " + SIDECAR_NOTE)
     parser.add_argument("--method", choices=METHODS, help="search method (default: the file's search.method, else auto)")
-    parser.add_argument("--budget", type=int, metavar="N", help="most runs (default: search.budget, else 200)")
-    parser.add_argument("--seed", type=int, metavar="S", help="seed of the search (default: search.seed, else 0)")
-    parser.add_argument("--batch", type=int, metavar="N", help="runs asked and run together (default: search.batch, else the runs that can run at once: --jobs, or the Dask cluster's workers)")
+    parser.add_argument("--budget", type=whole, metavar="N", help="most runs (default: search.budget, else 200)")
+    parser.add_argument("--seed", type=whole, metavar="S", help="seed of the search (default: search.seed, else 0)")
+    parser.add_argument("--batch", type=whole, metavar="N", help="runs asked and run together (default: search.batch, else the runs that can run at once: --jobs, or the Dask cluster's workers)")
     parser.add_argument("--stop", choices=("failure", "cluster", "all", "first"),
                         help="failure: stop at the first failing run; cluster: stop once the first failure's cluster is shrunk and bounded "
                              "(first: its old name); all (default): search to the end of the budget")  # fmt: skip

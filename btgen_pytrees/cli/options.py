@@ -55,7 +55,7 @@ class Parents:
 
 def parents() -> Parents:
     jobs = argparse.ArgumentParser(add_help=False)
-    jobs.add_argument("--jobs", "-j", type=int, default=min(os.cpu_count() or 1, MAX_JOBS), metavar="N",
+    jobs.add_argument("--jobs", "-j", type=whole, default=min(os.cpu_count() or 1, MAX_JOBS), metavar="N",
                       help=f"with several files or a sweep: worker processes, 1 to {MAX_JOBS} (default: the number of CPUs)")  # fmt: skip
     many = argparse.ArgumentParser(add_help=False, parents=[jobs])
     many.add_argument("--out-dir", metavar="DIR", help="write each file's output into DIR (made when first written)")
@@ -71,11 +71,23 @@ def parents() -> Parents:
     return Parents(jobs, many, plugin, chosen)
 
 
-def non_negative(text: str) -> int:
+def whole(text: str) -> int:
+    """A whole number as a case file reads one: ``10``, ``1e1`` and ``10.0`` are 10; ``2.5`` is refused."""
     try:
-        value = int(text)
+        return int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value.is_integer():  # also inf and nan
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number")
+    return int(value)
+
+
+def non_negative(text: str) -> int:
+    value = whole(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"{value} is negative; the root is depth 0")
     return value
@@ -96,10 +108,7 @@ def indent(text: str) -> int | None | str:
 
 
 def positive(text: str) -> int:
-    try:
-        value = int(float(text)) if "e" in text.lower() else int(text)
-    except (ValueError, OverflowError):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    value = whole(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"{value} must be at least 1")
     return value

@@ -30,7 +30,7 @@ from ..sweep.runs import resolved_system, ship
 from ..systems import SystemSpec
 from .checks import check_out_dir, check_output, targets
 from .many import run_batch, single
-from .options import SIDECAR_NOTE, Parents, chosen, non_negative, positive, registry, system
+from .options import SIDECAR_NOTE, Parents, chosen, non_negative, positive, registry, system, whole
 from .sweep import add_executor_options, make_executor, run_options, run_sweep
 from .terminal import deliver, err, stdout_text
 
@@ -55,7 +55,7 @@ def add_parser(sub: Any, parents: Parents) -> None:
     parser.add_argument("--max-work", type=positive, default=MAX_WORK, metavar="N",
                         help=f"work budget of a run: ticks x (entries + criteria + 10), default {MAX_WORK:.0e}; a case over it is refused before running")  # fmt: skip
     parser.add_argument("--btlog", metavar="PATH", help="write the run as a BehaviorTree.CPP .btlog (FileLogger2) for Groot2")
-    parser.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
+    parser.add_argument("--max-variations", type=whole, metavar="N", help="a sweep may have at most N variations (default 10000)")
     parser.add_argument("--variations", action="store_true",
                         help="batch mode: run every variation of each sweep file, on one worker per file (default: a sweep in a batch of several files runs its defaults, and its row says so; a sweep given alone always runs its variations)")  # fmt: skip
     add_executor_options(parser)

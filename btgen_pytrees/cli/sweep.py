@@ -30,7 +30,7 @@ from ..sweep.plot import map_bytes
 from ..sweep.overrides import variation_name
 from ..sweep.runs import file_name, run_variations, sweep_report
 from ..systems.sumo import keep_simulations, release_simulations
-from .options import SIDECAR_NOTE, Parents, chosen, registry
+from .options import SIDECAR_NOTE, Parents, chosen, registry, whole
 from .terminal import deliver
 
 __all__ = ["add_parser", "add_executor_options", "cmd_expand", "run_sweep", "make_executor", "checked_scheduler",
@@ -41,7 +41,7 @@ def add_parser(sub: Any, parents: Parents) -> None:
     expand = sub.add_parser("expand", parents=[parents.plugin, parents.chosen], help="write each variation of a sweep as a concrete test case")
     expand.add_argument("file", metavar="FILE", help="test case file with variations, or an OpenSCENARIO ParameterValueDistribution (.xosc); " + SIDECAR_NOTE)
     expand.add_argument("--out-dir", required=True, metavar="DIR", help="write name[gap=5,...].json files into DIR")
-    expand.add_argument("--max-variations", type=int, metavar="N", help="refuse more than N variations (default 10000)")
+    expand.add_argument("--max-variations", type=whole, metavar="N", help="refuse more than N variations (default 10000)")
     expand.set_defaults(func=cmd_expand)
 
 

@@ -11,7 +11,7 @@ from ..errors import ExitCode, plural
 from ..writing import emit
 from ..parallel import Interrupted, summary
 from .many import expand_files, process_files
-from .options import SIDECAR_NOTE, Parents
+from .options import SIDECAR_NOTE, Parents, whole
 from .terminal import err, problems
 
 __all__ = ["add_parser", "cmd_validate"]
@@ -21,7 +21,7 @@ def add_parser(sub: Any, parents: Parents) -> None:
     validate = sub.add_parser("validate", parents=[parents.plugin, parents.jobs], help="check test case files; exit 0 only if all are valid")
     validate.add_argument("files", nargs="+", metavar="FILE", help="test case files (.json, .xosc) or directories of them; " + SIDECAR_NOTE)
     validate.add_argument("--quiet", "-q", action="store_true", help="print problems only (no 'ok' lines, no warnings)")
-    validate.add_argument("--max-variations", type=int, metavar="N", help="a sweep may have at most N variations (default 10000)")
+    validate.add_argument("--max-variations", type=whole, metavar="N", help="a sweep may have at most N variations (default 10000)")
     validate.set_defaults(func=cmd_validate)
 
 

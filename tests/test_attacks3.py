@@ -60,6 +60,11 @@ class Leaf(py_trees.behaviour.Behaviour):
                 fh.write(str(os.getpid()))
             time.sleep(0.05)
             return Status.RUNNING
+        if self.how == "slow":  # say it is running (signals as they come), run forever
+            with open(os.environ["ATTACK_READY"], "w") as fh:
+                fh.write(str(os.getpid()))
+            time.sleep(0.05)
+            return Status.RUNNING
         if self.how == "close":  # close every standard stream, then fail
             sys.stdout.close()
             sys.stderr.close()
@@ -75,7 +80,7 @@ class Leaf(py_trees.behaviour.Behaviour):
 
 
 def register(registry):
-    for action in ("deaf", "close", "parricide", "move"):
+    for action in ("deaf", "slow", "close", "parricide", "move"):
         registry.register(action, lambda e, env: Leaf(e, env), kind="behavior")
 '''
 
@@ -96,7 +101,7 @@ def write(path: pathlib.Path, data: Any) -> pathlib.Path:
 def work(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> pathlib.Path:
     """A scratch folder (the working directory) with the plugin, a case per attack and fig1's cases."""
     write(tmp_path / "attack.py", PLUGINS)
-    for action in ("deaf", "close", "parricide", "move"):
+    for action in ("deaf", "slow", "close", "parricide", "move"):
         write(tmp_path / f"{action}.json", case(entry("A", action=action), name=action, timeout=100000, tick=0.1))
     for source in (FIG1, FAILING, SWEEP):
         write(tmp_path / source.name, source.read_text())
@@ -212,6 +217,23 @@ def test_stdout_on_a_full_device_is_reported_and_the_verdict_is_the_exit_code(wo
         assert result.returncode == code, result.stderr
         assert result.stderr.strip().splitlines()[-1] == "btgen_pytrees: standard output: cannot write: No space left on device"
         assert "Traceback" not in result.stderr and "Exception ignored" not in result.stderr
+
+
+def test_an_interrupted_batch_on_a_full_device_still_exits_130(work: pathlib.Path) -> None:
+    # the summary of an interrupted batch cannot be printed: that is said, and the exit is the signal's, not 2
+    ready = work / "ready"
+    with open("/dev/full", "w") as full:
+        process = subprocess.Popen([sys.executable, "-m", "btgen_pytrees", "run", "fig1.json", "slow.json", "--jobs", "1",
+                                    "--plugin", "attack.py", "--max-work", "1e12"], cwd=work, stdout=full,
+                                   stderr=subprocess.PIPE, env=dict(os.environ, ATTACK_READY=str(ready)), text=True)  # fmt: skip
+        deadline = time.monotonic() + 60
+        while not (ready.exists() and ready.read_text()) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "btgen_pytrees: standard output: cannot write: No space left on device" in err
+    assert err.rstrip().endswith("interrupted by SIGINT; files not run are marked NOT RUN") and "Traceback" not in err
 
 
 def test_a_full_disk_leaves_no_file_and_keeps_the_verdict(work: pathlib.Path) -> None:

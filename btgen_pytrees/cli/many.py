@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 from ..batch import expand
 from ..errors import InvalidTestCase, Problem, UsageError
-from ..writing import WriteFailed, commit, emit
+from ..writing import WriteFailed, commit
 from ..parallel import Interrupted, Outcome, process, progress_stream, summary
 from .checks import make_out_dir
 from .terminal import deliver, err, problems
@@ -47,9 +47,9 @@ def run_batch(args: argparse.Namespace, files: list[str], job: Callable[..., Out
     except Interrupted as stop:
         for outcome in stop.outcomes:
             problems(outcome, args.quiet)
-        emit(summary(stop.outcomes))
+        code = deliver([], summary(stop.outcomes), 128 + stop.signum)  # stdout full or not: 130/143 all the same
         err(f"btgen_pytrees: interrupted by {signal.Signals(stop.signum).name}; files not run are marked NOT RUN")
-        return 128 + stop.signum
+        return code
     failed: list[WriteFailed] = []
     if after is not None:
         try:

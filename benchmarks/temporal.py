@@ -5,7 +5,9 @@ Issue 34: 20 bounded temporal operators over a 10,000-tick run should cost at mo
 in 20 criteria: ``x <= c`` on every tick (record), or ``always[0, 999.9](x <= c)`` /
 ``eventually[0, 999.9](x >= c)`` anchored at 0 (temporal: the run goes on to their horizon, the same
 10,000 ticks; the monitor keeps each window's extreme in a monotone deque, and ``decided`` is worked out
-at the end). A third case, ``nested``, has 20 ``always[0, 990](eventually[0, 9.9](x >= c))`` (40 operators).
+at the end). A third case, ``nested``, has 20 ``always[0, 990](eventually[0, 9.9](x >= c))`` (40 operators);
+a fourth, ``until``, 20 ``(x >= -1) until[0, 999.9] (x >= c)`` / ``until[499.9, 999.9]`` (windows of 10,000
+and 5,000 ticks).
 Each run is ``run(case, record=False)`` as a sweep's or a search's job runs it, timed with the process's
 CPU clock, the cases taken in turns (``--rounds``); the report is the median per case and the ratios.
 
@@ -41,6 +43,9 @@ def case(kind: str) -> dict[str, Any]:
         elif kind == "temporal":
             expect = f"always[0, 999.9](x <= {2000 + i})" if i % 2 == 0 else f"eventually[0, 999.9](x >= {990 - i})"
             criteria.append({"id": f"C{i}", "type": "temporal", "expect": expect})
+        elif kind == "until":
+            window = "[0, 999.9]" if i % 2 == 0 else "[499.9, 999.9]"
+            criteria.append({"id": f"C{i}", "type": "temporal", "expect": f"(x >= -1) until{window} (x >= {990 - i})"})
         else:
             criteria.append({"id": f"C{i}", "type": "temporal", "expect": f"always[0, 990](eventually[0, 9.9](x >= {-1 - i}))"})
     return {"name": kind, "tick": 0.1, "timeout": 1100, "signals": {"x": 0.0},
@@ -68,7 +73,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--window-ticks", type=int, nargs=2, default=[10, 1000], metavar=("NARROW", "WIDE"))
     parser.add_argument("--samples", type=int, default=20000)
     args = parser.parse_args(argv)
-    cases = {kind: load(case(kind)) for kind in ("record", "temporal", "nested")}
+    cases = {kind: load(case(kind)) for kind in ("record", "temporal", "nested", "until")}
     times: dict[str, list[float]] = {kind: [] for kind in cases}
     ticks: dict[str, int] = {}
     for _ in range(args.rounds):

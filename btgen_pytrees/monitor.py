@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from itertools import accumulate
 from typing import Callable, Iterable
 
 from .formulas import Formula
@@ -435,22 +436,47 @@ def bound_at(monitor: Monitor, anchor: int, k: int, lower: bool) -> float:
         elif op == "until":
             a, b = node.low, node.high
             assert b is not None
+            left, right = kids
+            top = t + b
+            done = min(top, _settled(left, k), _settled(right, k))  # [t, done]: the monitor's own values
             v, run = -_INF, _INF
-            for u in range(t, t + b + 1):
+            if done >= t:  # min(ψ(u), min of φ over [t, u)) for the settled u: running minima in C
+                runs = list(accumulate(left.values[t : done + 1], min))
+                first = t + a
+                if first <= done:
+                    before = runs[first - t - 1 : done - t] if first > t else [_INF, *runs[: done - t]]
+                    v = max(map(min, right.values[first : done + 1], before))
+                run = runs[-1]
+            for u in range(max(t, done + 1), top + 1):
                 if u >= t + a:
-                    v = max(v, min(value(kids[1], u), run))
-                run = min(run, value(kids[0], u))
+                    v = max(v, min(value(right, u), run))
+                    if u > k and right.formula.op == "atom":
+                        break  # ψ's later samples: the same extreme under a running minimum no larger
+                run = min(run, value(left, u))
         else:  # since
             a, b = node.low, node.high
+            left, right = kids
+            first = 0 if b is None else max(t - b, 0)
+            done = min(t, _settled(left, k), _settled(right, k))
             v, run = -_INF, _INF
-            for u in range(t, (0 if b is None else max(t - b, 0)) - 1, -1):
+            for u in range(t, max(done, first - 1), -1):  # the open samples, nearest first
                 if u <= t - a:
-                    v = max(v, min(value(kids[1], u), run))
-                run = min(run, value(kids[0], u))
+                    v = max(v, min(value(right, u), run))
+                run = min(run, value(left, u))
+            top = min(done, t - a)
+            if top >= first:  # the settled ones: min(ψ(u), run, min of φ over (u, done]), suffix minima in C
+                after = list(accumulate(reversed(left.values[first + 1 : done + 1]), min))[::-1]
+                after.append(_INF)
+                v = max(v, min(run, max(map(min, right.values[first : top + 1], after))))
         memo[key] = v
         return v
 
     return value(monitor.root, anchor)
+
+
+def _settled(child: Node, k: int) -> int:
+    """The last sample at which *child*'s value is the monitor's own at *k* (it reads no sample after *k*)."""
+    return min(k - int(child.span), len(child.values) - 1) if child.span != _INF else -1
 
 
 def _extreme(child: Node, first: int, top: int, k: int, larger: bool, value: Callable[[Node, int], float]) -> float:

@@ -542,8 +542,9 @@ def test_the_benchmark_cases_load():
     sys.path.insert(0, str(ROOT))
     from benchmarks import temporal as bench
 
-    cases = {kind: load(bench.case(kind)) for kind in ("record", "temporal", "nested")}
-    assert [len(c.criteria) for c in cases.values()] == [bench.N] * 3
+    cases = {kind: load(bench.case(kind)) for kind in ("record", "temporal", "nested", "until")}
+    assert [len(c.criteria) for c in cases.values()] == [bench.N] * 4
+    assert cases["until"].criteria[1].expect.span == pytest.approx(999.9)  # a window of 10,000 ticks
     assert cases["temporal"].criteria[1].expect.span == pytest.approx(999.9)
 
 

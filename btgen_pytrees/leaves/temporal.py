@@ -47,6 +47,7 @@ class Temporal(Oracle):
         self.anchor: int | None = None  # the anchor's sample, once known
         self.anchor_known = 0  # the sample on which the anchor became known
         self.history: list[dict[str, Any]] = []  # the values read on each tick (what the explanation names)
+        self.waiting = ""  # the feedback while the horizon has not passed (worked out once the anchor is known)
 
     def waits_for_execute(self) -> bool:
         return self.criterion.expect.span == float("inf")  # type: ignore[union-attr]
@@ -120,12 +121,13 @@ class Temporal(Oracle):
                 return _RUNNING
             self.anchor_known = k
             self.outcome.message = f"the run ended before its horizon ({self.horizon_text(self.anchor)})"
+            self.waiting = f"horizon {self.horizon_text(self.anchor)}"
         anchor = self.anchor
         root = monitor.root
         ended = False
         if len(root.values) <= anchor:
             if root.span != float("inf") or not self.env.execute_done(self.client):
-                self.feedback_message = f"horizon {self.horizon_text(anchor)}"
+                self.feedback_message = self.waiting
                 return _RUNNING
             monitor.finish()  # always without a window: the run ends with the execute subtree
             ended = True

@@ -97,7 +97,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--corpus", default=CORPUS, help="the ALKS corpus (default $BTGEN_OSC_CORPUS or %(default)s)")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--sample", type=int, default=4, metavar="N", help="variations timed per distribution (default 4)")
-    parser.add_argument("--only", metavar="TEXT", help="only the distribution files whose name contains TEXT")
+    parser.add_argument("--only", metavar="TEXT", help="part 2: only the distribution files whose name contains TEXT")
     parser.add_argument("--skip-commands", action="store_true", help="skip part 1 (the commands' wall times)")
     parser.add_argument("--full", nargs="*", default=[], metavar="FILE", help="also time 'run FILE --jobs N' of these")
     parser.add_argument("--json", metavar="PATH", help="write every figure as JSON")
@@ -105,8 +105,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     logical = os.path.join(args.corpus, "logical_scenarios")
     concrete = sorted(glob.glob(os.path.join(logical, "concrete_scenarios", "*.xosc")))
     distributions = sorted(glob.glob(os.path.join(logical, "*.xosc")))
-    if args.only:
-        distributions = [d for d in distributions if args.only in os.path.basename(d)]
+    sampled = [d for d in distributions if args.only in os.path.basename(d)] if args.only else distributions
     if not concrete or not distributions:
         print(f"no corpus at {args.corpus}", file=sys.stderr)
         return 2
@@ -122,7 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     registry = default_registry()
     header = f"{'distribution':44s} {'variations':>10s} {'ticks':>6s} {'per var ms':>10s} " + " ".join(f"{p:>11s}" for p in PARTS)
     print(header)
-    for path in distributions:
+    for path in sampled:
         row = sample_file(path, args.sample, registry)
         out["files"].append(row)
         shares = " ".join(f"{100 * row['mean'][p] / row['per variation']:10.0f}%" for p in PARTS)

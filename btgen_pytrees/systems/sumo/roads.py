@@ -21,6 +21,7 @@ copied into the cache and converted, so netconvert reads exactly what was checke
 from __future__ import annotations
 
 import bisect
+import functools
 import hashlib
 import json
 import math
@@ -88,7 +89,9 @@ def netconvert_binary() -> str | None:
     return shutil.which("netconvert")
 
 
+@functools.lru_cache(maxsize=1)
 def _sumo_version() -> str:
+    """The installed SUMO's version, part of the cache key (read once a process: importlib.metadata walks sys.path)."""
     for name in ("eclipse-sumo", "libsumo"):
         try:
             return f"{name} {metadata.version(name)}"
@@ -173,8 +176,20 @@ def _convert(xodr: str) -> tuple[str, Network]:
             finally:
                 with _suppress():
                     os.unlink(tmp)
+            _networks[key] = network
             return net, network
-    return net, read_opendrive(copy, shown)
+        network = _networks.get(key)
+        if network is None:
+            network = read_opendrive(copy, shown)
+            if len(_networks) >= 16:
+                _networks.clear()
+            _networks[key] = network
+    return net, network
+
+
+_networks: dict[str, Network] = {}
+"""The roads read, by the digest of the ``.xodr``'s bytes (and netconvert's version and options): a sweep's
+variations on one road read it once a process (the reading, not the file, is what is kept)."""
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -124,8 +124,9 @@ def series(rows: list[dict[str, str]], column: str) -> list[tuple[float, float]]
     """The changes of the number *column*: (time, value) where it differs from the row before."""
     out: list[tuple[float, float]] = []
     for row in rows:
-        if not out or out[-1][1] != float(row[column]):
-            out.append((round(float(row["time"]), 6), float(row[column])))
+        value = float({"true": 1, "false": 0}.get(row[column], row[column]))  # type: ignore[arg-type]
+        if not out or out[-1][1] != value:
+            out.append((round(float(row["time"]), 6), value))
     return out
 
 
@@ -209,11 +210,13 @@ def test_an_overridden_event_and_a_stopped_acts_elements_are_complete_by_a_stop_
     report, rows = run(tmp_path, text)
     by_name = {e["name"]: e for e in report["execute"]}
     assert (by_name["Action SlowHold"]["status"], by_name["Action SlowHold"]["end"]) == ("stopped", 2.1)
-    assert series(rows, "state_event_Slow") == [(0.0, 0), (1.0, 1), (2.0, 2)]  # overridden at 2 s
-    assert series(rows, "state_event_Idle") == [(0.0, 0)]  # in standby: not overridden
+    # a stopped element's state signal keeps its value; its stop signal (one per stopper) makes it complete
+    assert series(rows, "state_event_Slow") == [(0.0, 0), (1.0, 1)] and series(rows, "stopped_event_Slow") == [(0.0, 0), (2.0, 1)]
+    assert series(rows, "state_event_Idle") == [(0.0, 0)] and series(rows, "stopped_event_Idle") == [(0.0, 0)]  # standby: not overridden
     assert series(rows, "var_x") == [(0.0, 0), (2.0, 1)]  # the stopTransition, seen by a trigger
-    assert series(rows, "state_event_Later") == [(0.0, 0), (1.0, 1), (3.0, 2)]  # running when its act stopped
-    assert series(rows, "state_event_Never") == [(0.0, 0), (3.0, 2)]  # in standby when its act stopped
+    assert series(rows, "stopped_event_Later") == [(0.0, 0), (3.0, 1)]  # running when its act stopped
+    assert series(rows, "stopped_event_Never") == [(0.0, 0), (3.0, 1)]  # in standby when its act stopped
+    assert series(rows, "state_event_Urgent") == [(0.0, 0), (2.0, 2)] and "stopped_event_Urgent" not in rows[0]
     assert all(v == "pass" for k, v in verdicts(report).items() if k.startswith("completed-")) and report["verdict"] == "pass"
 
 

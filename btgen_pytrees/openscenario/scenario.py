@@ -230,9 +230,10 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
         criteria.append({"id": "stop_trigger", "type": "final", "expect": f"not {ego}.end_of_road",
                          "name": f"the StopTrigger ended the run, not the end of the road ({ego})"})  # fmt: skip
         timeline.stop.append({"when": f"{ego}.end_of_road"})
-    for event in timeline.events:
+    for event in timeline.events:  # not running at the end: standby (executions left), complete or stopped
         signal = timeline.state_of(event)
-        criteria.append({"id": f"completed-{event.id}"[:64], "type": "final", "expect": f"{signal} != 1",
+        expect = " || ".join([f"{signal} != 1", *event.stops])
+        criteria.append({"id": f"completed-{event.id}"[:64], "type": "final", "expect": expect,
                          "name": f"event {event.name} completed if it started"[:200]})  # fmt: skip
     stem = os.path.splitext(os.path.basename(path))[0]
     doc: dict[str, Any] = {"name": stem[:200] or "scenario"}

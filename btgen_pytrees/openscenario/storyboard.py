@@ -84,6 +84,7 @@ class Element:
     transitions: dict[str, str] = field(default_factory=dict)  # start/end/skip -> its signal, when one is needed
     entry_points: list[dict[str, Any]] = field(default_factory=list)  # its first entry in each execution of its parent
     standby: bool = False  # a condition reads its standbyState
+    stops: list[str] = field(default_factory=list)  # its stop signals: true once a stopper stopped it (complete)
 
 
 @dataclass
@@ -133,6 +134,8 @@ class Timeline:
         self.repeating = False  # building the trigger of an element executed more than once
         self.written = False  # the states' set entries are written (write_states)
         self.stoppers: list[tuple[str, list[Element], bool]] = []  # (entry, elements it stops, only running ones)
+        self.stopped: list[tuple[str, list[Element], bool, list[str]]] = []  # the same with each element's stop signal
+        self.quiet: list[tuple[list[dict[str, Any]], list[Element]]] = []  # a skip event's racing entries, the others
 
     # -- signals ---------------------------------------------------------------------------------
     def signal(self, name: str, value: Any) -> str:
@@ -419,10 +422,7 @@ class Timeline:
                 if priority in ("override", "overwrite") and others:
                     execution.marker["stops"] = [a for o in others for a in o.actions]
                     self.stoppers.append((execution.start, others, True))  # the running ones: stopTransition
-            quiet = " && ".join(f"{self.state_of(o)} != 1" for o in others) or "true"
-            for execution in executions[k]:
-                for branch in execution.branches:
-                    branch["when"] = branch["when"].replace(_QUIET, quiet)
+            self.quiet.extend((execution.branches, others) for execution in executions[k] if execution.branches)
         self._rescope(before)
 
     def event(self, node: Node, maneuver: Element, actors: list[str], start: str, event: "Element | None",
@@ -565,8 +565,6 @@ class Timeline:
                 if element.state is not None and not ex.written:
                     self._state_sets(element, ex, tag, text)
                 for transition, signal in element.transitions.items():
-                    if transition == "stop":
-                        continue  # written with the stoppers, below
                     if transition == "start":
                         after = [ex.start]
                     elif transition == "end":
@@ -585,21 +583,29 @@ class Timeline:
                                       {"signal": element.state, "value": 0}, point.get("after", []), join=point.get("join"))  # fmt: skip
                     point["after"] = [wait["id"]]
                     point.pop("join", None)
-        for stopper, targets, running in self.stoppers:
-            for element in targets:
-                if element.state is None:
-                    continue  # nothing reads it
+        for stopper, targets, running, latches in self.stopped:
+            for element, latch in zip(targets, latches):
                 # 8.4.2: an overridden event that runs, or an element of a stopped act not yet complete, moves to
-                # completeState with a stopTransition; "if" as a race of the set (with its condition) and a no-op
+                # completeState with a stopTransition. Its own latch (one writer: no two entries write one signal
+                # unordered); "if" as a race of the set (with its condition) and a no-op
                 race = identifier(f"{stopper}-{element.id}-stop", self.ids)
-                test = f"{element.state} == 1" if running else f"{element.state} != 2"
-                done = self.entry(f"{stopper}-stops-{element.id}", f"{element.kind} {element.name} stopped", "behavior", "set",
-                                  {"signal": element.state, "value": 2}, [stopper], when=test, race=race)  # fmt: skip
+                test = self.expression(element, "runningState" if running else "notComplete", skip_latch=latch)
+                self.entry(f"{stopper}-stops-{element.id}", f"{element.kind} {element.name} stopped", "behavior", "set",
+                           {"signal": latch, "value": True}, [stopper], when=test, race=race)  # fmt: skip
                 self.entry(f"{stopper}-spares-{element.id}", f"{element.kind} {element.name} not stopped", "constraint", "wait",
                            {"duration": 0}, [stopper], race=race)  # fmt: skip
-                if "stop" in element.transitions:
-                    self.entry(f"{done['id']}-stop", f"{element.kind} {element.name} stopTransition", "behavior", "set",
-                               {"signal": element.transitions["stop"], "value": True}, [done["id"]])  # fmt: skip
+
+    def expression(self, element: Element, state: str, skip_latch: str | None = None) -> str:
+        """The expression of *element*'s *state* (``standbyState``, ``runningState``, ``completeState``,
+        ``notComplete``) on its state signal and its stop signals (a stopped element is complete)."""
+        signal = self.state_of(element)
+        stopped = " || ".join(x for x in element.stops if x != skip_latch)
+        if state == "completeState":
+            return f"({signal} == 2 || {stopped})" if stopped else f"{signal} == 2"
+        if state == "notComplete":
+            return f"{signal} != 2 && !({stopped})" if stopped else f"{signal} != 2"
+        value = {"standbyState": 0, "runningState": 1}[state]
+        return f"{signal} == {value} && !({stopped})" if stopped else f"{signal} == {value}"
 
     def _state_expression(self, kind: str, name: str, state: str, node: Node) -> str:
         if kind not in ELEMENT_TYPES:
@@ -620,6 +626,7 @@ class Timeline:
     def resolve_states(self) -> None:
         """Replace the placeholders of state conditions by the named elements' state and transition signals (the
         elements may be written after the conditions that name them), then write the signals' ``set`` entries."""
+        texts: list[tuple[str, Any, str | None]] = []
         for kind, name, node, placeholder, state in self.state_refs:
             found = [el for el in self.elements if el.kind == kind and el.name == name]
             if not found:
@@ -632,19 +639,39 @@ class Timeline:
                 transition = state[: -len("Transition")]
                 if transition == "stop":
                     self.state_of(element)  # a stop is seen in the state: running (or standby) to complete
+                    texts.append((placeholder, element, "stopTransition"))
+                    continue
                 if transition == "skip" and not any(ex.skip for ex in element.executions):
                     text = "false"  # 8.4.2.2: only an event of priority skip in a maneuver of several events is ever skipped
                 else:
                     text = self.transition_of(element, transition)
+                texts.append((placeholder, text, None))
             else:
                 if state == "standbyState":
                     element.standby = True
-                text = f"{self.state_of(element)} {_SUPPORTED_STATES[state]}"
+                self.state_of(element)
+                texts.append((placeholder, element, state))
+        for element in self.events:
+            self.state_of(element)
+        for stopper, targets, running in self.stoppers:  # a stop signal per stopper and element with a state
+            targets = [el for el in targets if el.state is not None]
+            latches = [self.signal(f"stopped_{el.kind}_{el.name}", False) for el in targets]
+            for element, latch in zip(targets, latches):
+                element.stops.append(latch)
+            self.stopped.append((stopper, targets, running, latches))
+        for placeholder, what, state in texts:
+            if isinstance(what, Element):
+                text = (" || ".join(what.stops) or "false") if state == "stopTransition" else self.expression(what, state)
+                text = f"({text})" if "||" in text or "&&" in text else text
+            else:
+                text = what
             for holder in [*self.entries, *self.stop]:
                 if "when" in holder and placeholder in holder["when"]:
                     holder["when"] = holder["when"].replace(placeholder, text)
-        for element in self.events:
-            self.state_of(element)
+        for branches, others in self.quiet:  # priority skip: none of the others running
+            quiet = " && ".join(f"!({self.expression(o, 'runningState')})" for o in others) or "true"
+            for branch in branches:
+                branch["when"] = branch["when"].replace(_QUIET, quiet)
         self.write_states()
 
 

@@ -31,6 +31,8 @@ each file NAME (a relative path; folders are made), made from SOURCE: ``the bloc
 previous code block), ``the 2nd block above`` (the one before it, and so on), or a repository path
 (``examples/fig1_failing.json``). Without it, the command runs from the repository's root (where a
 pytest sample runs under this project's own pytest configuration, ``pyproject.toml`` and ``conftest.py``).
+``(in corpus/DIR)`` runs it in the folder DIR of the ALKS OpenSCENARIO corpus (:data:`CORPUS`), which
+is not part of this repository: where it is absent (on a CI server, say) the sample is not checked.
 
 **Excerpts.** ARGS may end with `` | `` and a rule that keeps a part of the output, never an edit by
 hand:
@@ -88,6 +90,9 @@ SAMPLE = re.compile(r"^<!-- sample(?P<pytest> pytest)?(?: \((?P<inputs>[^)]+)\))
                     r"(?P<fence>```\w*\n)(?P<body>.*?)^```", re.S | re.M)  # fmt: skip
 FENCE = re.compile(r"^```\w*\n(.*?)^```", re.S | re.M)
 PROMPT = "$ python -m btgen_pytrees "
+CORPUS = pathlib.Path(os.environ.get("BTGEN_OSC_CORPUS", "/work/shared/corpus/openscenario/alks"))
+"""The ALKS OpenSCENARIO corpus (BMW's, MPL-2.0: not part of this repository), as tests/test_openscenario.py finds it."""
+IN_CORPUS = re.compile(r"in corpus(?:/(?P<dir>[\w.-]+(?:/[\w.-]+)*))?")
 INPUT = re.compile(r"(?P<name>[\w.-]+(?:/[\w.-]+)*) = (?:the (?:(?P<nth>\d+)(?:st|nd|rd|th) )?block above|(?P<path>[\w.-]+(?:/[\w.-]+)*))")
 EXCERPT = re.compile(r"(?P<args>.*?)(?: \| (?P<rule>lines|section|usage)(?: (?P<what>.+))?)?")
 TITLE = re.compile(r"(?:_{3,}|={3,}) (?P<title>.*?) (?:_{3,}|={3,})")
@@ -224,6 +229,10 @@ def sample_text(match: re.Match[str]) -> str:
         args, run = (parts["args"], pytest_output) if match["pytest"] else (parts["args"], cli)
         typed = ("$ pytest " if match["pytest"] else PROMPT) + args
         prompt = typed + "\n" if match["body"].startswith("$ ") else ""
+        corpus = IN_CORPUS.fullmatch(match["inputs"] or "")
+        if corpus:
+            where = CORPUS / (corpus["dir"] or "")
+            return prompt + excerpt(run(shlex.split(args), where), parts["rule"], parts["what"])
         files = inputs(match)
         if not files:
             return prompt + excerpt(run(shlex.split(args)), parts["rule"], parts["what"])
@@ -239,23 +248,32 @@ def sample_text(match: re.Match[str]) -> str:
     return text
 
 
-def sumo_missing(match: re.Match[str]) -> bool:
-    """Whether the sample runs a SUMO case where libsumo is not installed (it cannot be made here)."""
-    return "sumo" in ((match["inputs"] or "") + (match["args"] or match["body"]) if not match["file"] else "") and importlib.util.find_spec("libsumo") is None
+def missing(match: re.Match[str]) -> str | None:
+    """What a sample needs that is not here: the corpus of an ``(in corpus...)`` sample, libsumo for a SUMO case."""
+    if match["file"]:
+        return None
+    in_corpus = (match["inputs"] or "").startswith("in corpus")
+    if in_corpus and not CORPUS.is_dir():
+        return "the OpenSCENARIO corpus"
+    if (in_corpus or "sumo" in (match["inputs"] or "") + (match["args"] or match["body"])) and importlib.util.find_spec("libsumo") is None:
+        return "libsumo"
+    return None
 
 
 def samples(write: bool = False, skip: Callable[[str], None] | None = None) -> list[str]:
     """Every sample whose block is not what its command prints now (``DOC: args``); with *write*, fix them.
 
-    A sample of a SUMO case where libsumo is missing is passed to *skip* (``DOC: args``), or reported without it.
+    A sample that cannot be made here (:func:`missing`: a SUMO case without libsumo, a sample of the corpus without
+    it) is passed to *skip* (``DOC: args (needs WHAT)``), or reported without it.
     """
     stale = []
     for doc in DOCS:
         text = doc.read_text(encoding="utf-8")
 
         def made_again(m: re.Match[str]) -> str:
-            if sumo_missing(m):
-                (skip or stale.append)(f"{doc.name}: {m['args'] or 'session'} (needs libsumo)")
+            needed = missing(m)
+            if needed:
+                (skip or stale.append)(f"{doc.name}: {m['args'] or 'session'} (needs {needed})")
                 return m.group(0)
             return m.group(0)[:m.start("body") - m.start()] + sample_text(m) + "```"
 

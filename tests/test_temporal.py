@@ -584,7 +584,36 @@ def test_views_carry_temporal_criteria(tmp_path):
     assert "T: x &lt;= 3" in svg  # the atom's bound, as record criteria's are drawn
     report = run(load(json.loads(path.read_text())))
     assert row_of(report)["oracles"][0]["decided"] == pytest.approx(1.3)
+    row = next(line for line in report.table().splitlines() if line.startswith("T "))  # the text table's row
+    assert row.split()[1:5] == ["temporal", "always[0,", "1](x", "<="] and " fail " in row and "1.5" in row
+    assert any(line.startswith("criterion T (temporal) failed: always[0, 1](x <= 3) violated at 0.5 s (margin -0.75)")
+               for line in report.explanation)  # fmt: skip
     assert [source for source, _ in report.oracles[0].terms] == ["always[0, 1](x <= 3)", "x <= 3"]
+
+
+@pytest.mark.parametrize(("criterion", "why", "where"), [
+    ({"expect": "always[0, 2](x <= 3)"}, "always failed at 2 s: x <= 3 false at 2 s (x=5)", (2.0, {"x": 5.0})),
+    ({"expect": "eventually[0, 1](x >= 4)"}, "x >= 4 never held in [0, 1] s; its best value -1.5 at 1 s", (1.0, {"x": 2.5})),
+    ({"expect": "(x <= 1) until[0, 1] (x >= 2)"}, "x <= 1 gave out at 0.5 s, before x >= 2 held at 0.8 s", (0.5, {"x": 1.25})),
+    ({"expect": "(x >= 0) until[0, 0.5] (x >= 4)"}, "x >= 4 never held in [0, 0.5] s (its best value -2.75 at 0.5 s)",
+     (0.5, {"x": 1.25})),
+    ({"from": 1.0, "expect": "x >= 1 -> eventually[0, 0.5](y >= 1)"},
+     "the premise x >= 1 held at 1 s (margin 1.5) and the consequence failed: y >= 1 never held in [1, 1.5] s; "
+     "its best value -1 at 1 s", (1.0, {"x": 2.5, "y": 0.0})),
+    ({"from": 1.0, "expect": "(x <= 1) since[0, 0.5] (x >= 4)"}, "x >= 4 did not hold in [0.5, 1] s with x <= 1 since",
+     (1.0, {"x": 2.5})),
+    ({"from": 1.0, "expect": "!(x >= 1) || once[0, 0.3](x >= 3)"},
+     "no side held: x >= 1 held at 1 s (margin 1.5); x >= 3 never held in [0.7, 1] s; its best value -0.5 at 1 s",
+     (1.0, {"x": 2.5})),
+])  # fmt: skip
+def test_the_explanation_says_why_per_operator(criterion, why, where):
+    """always: the tick and the values; eventually: never held in [t+a, t+b] and its best value; until: which
+    side gave out; ->: the premise held and the consequence failed; and the tick it names (--plot's marker).
+    x ramps 0 to 5 over 2 s (2.5 per second), y stays 0."""
+    report = run(load(case([{"id": "T", "type": "temporal", **criterion}])))
+    oracle = report.oracles[0]
+    assert oracle.verdict == "fail" and f": {why}; certain after the tick at " in oracle.message, oracle.message
+    assert oracle.violation == (pytest.approx(where[0]), pytest.approx(where[1]))
 
 
 def test_plot_marks_a_temporal_violation_at_the_tick_its_explanation_names():
@@ -678,3 +707,19 @@ def test_a_sweeps_verdict_map_and_rows_carry_the_temporal_margin(tmp_path):
     assert by_delay[2]["verdict"] == "fail" and by_delay[2]["margin"] == -1.0 and by_delay[2]["decided"] == pytest.approx(2.5)
     assert by_delay[1]["verdict"] == "pass" and by_delay[1]["margin"] > 0
     assert (tmp_path / "map.svg").read_text().startswith("<?xml")
+    sweep_json = json.loads((tmp_path / "s.json").read_text())
+    jsonschema.validate(sweep_json, json.loads((ROOT / "schemas" / "sweep-report.schema.json").read_text()))
+    # the map's colours are the temporal margin's objective (as falsify's): red where it failed, green where it held
+    from btgen_pytrees.sweep.plot import map_figure
+    from btgen_pytrees.sweep.report import SweepReport
+
+    report = SweepReport("s", str(path), {}, ("delay", "decel"), rows)
+    objectives = report.objectives()
+    assert [o is not None and (o < 0) == (r["oracles"][0]["margin"] < 0) for o, r in zip(objectives, rows)] == [True] * 4
+    figure = map_figure(report)
+    assert "objective" in figure.axes[1].get_ylabel()  # the colour bar: margins, not verdicts
+    cells = {(round(p.get_x() + 0.5), round(p.get_y() + 0.5)): p.get_facecolor() for p in figure.axes[0].patches}
+    assert len(cells) == 4
+    for r in rows:  # delay 1, 2 along x; decel 2, 4 along y
+        red, green = cells[(r["parameters"]["delay"] - 1, r["parameters"]["decel"] // 2 - 1)][:2]
+        assert (red > green) == (r["oracles"][0]["margin"] < 0), r["parameters"]

@@ -259,6 +259,39 @@ def test_bad_keys_are_named_at_their_pointer(change: dict, pointer: str, words: 
     assert any(p == pointer and words in m for p, m in found), found
 
 
+@pytest.mark.parametrize(
+    "change, pointer, words",
+    [
+        ({"attempts": True}, "/execute/2/attempts", "true is not of type 'integer'"),
+        ({"attempts": 2, "atempts": 2}, "/execute/2/atempts", "unknown key 'atempts' (did you mean 'attempts'?)"),
+        ({"attempts": 2, "params": None}, "/execute/2/params", "null is not of type 'object'"),
+        ({"attempts": 2.5}, "/execute/2/attempts", "2.5 is not of type 'integer'"),
+        ({"attempts": 2, "stops": ["A", "A"]}, "/execute/2/stops/1", "'A' is listed twice"),
+    ],
+)
+def test_entries_with_the_same_keys_share_one_control_and_a_near_copy_is_checked(tmp_path, change: dict, pointer: str,
+                                                                                   words: str) -> None:  # fmt: skip  # type: ignore[no-untyped-def]
+    """The loader builds an entry's keys once per distinct set (entries with equal keys share one Control): an
+    entry whose keys look like an earlier one's - equal in Python (True == 1 == 1.0), or the same keys with one
+    more - is still checked, from a dict and from a file."""
+    first = {**entry("B", duration=0.1), "attempts": 2, "stops": ["A"]}
+    same = {**entry("C", duration=0.1), "attempts": 2, "stops": ["A"]}
+    good = case(entry("A", duration=1), first, same, {**entry("D", duration=0.1), "attempts": 2.0, "stops": ["A"]})
+    loaded = load(good)
+    assert loaded.entries[1].control is loaded.entries[2].control  # one Control for equal keys
+    assert loaded.entries[3].control is not loaded.entries[1].control  # 2.0: a number of another type, built again
+    assert [(c.attempts, c.stops) for c in (e.control for e in loaded.entries[1:])] == [(2, ("A",))] * 3
+    assert results(run(loaded)) == {"A": ("stopped", 0.0, 0.1), **{k: ("success", 0.0, 0.1) for k in "BCD"}}
+    bad = case(entry("A", duration=1), first, {**entry("C", duration=0.1), "stops": ["A"], **change})
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(bad))
+    for source in (bad, str(path)):
+        with pytest.raises(InvalidTestCase) as info:
+            load(source)
+        found = [(p.pointer, p.message) for p in info.value.problems]
+        assert any(p == pointer and words in m for p, m in found), found
+
+
 def test_repeat_in_a_race_is_refused_and_the_cli_exits_2(tmp_path) -> None:  # type: ignore[no-untyped-def]
     data = case({**entry("A"), "race": "r", "repeat": 2}, {**entry("B"), "race": "r"}, stop=[{"when": "B.strted"}])
     path = tmp_path / "bad.json"
@@ -353,8 +386,12 @@ def test_the_benchmark_chains_run_and_differ_only_in_their_keys() -> None:
     assert sum(e.control is not None for e in modified.entries) == 4 and all(e.control is None for e in plain.entries)
     a, b = run(plain), run(modified)
     assert a.verdict == b.verdict == "pass" and a.ticks == b.ticks == 41
-    figures = bench.measure((20,), repeat=1)
-    assert figures["sizes"][20]["ticks"] == 21 and "load+generate" in bench.report(figures)
+    figures = bench.measure((20, 40), rounds=3)
+    assert figures["sizes"][20]["ticks"] == 21 and figures["sizes"][40]["ticks"] == 41
+    assert all(len(figures["sizes"][n][k]["ratios"]) == 3 for n in (20, 40) for k in ("build", "build_dict", "run"))
+    assert set(figures["run_scaling"]) == {"plain", "modified"}
+    text = bench.report(figures)
+    assert "load+generate from the file" in text and "from the dict" in text and "1.0 = linear" in text
 
 
 def test_parameters_stand_in_the_control_keys() -> None:

@@ -89,16 +89,17 @@ class _ChainWriter:
     def add(self, node: py_trees.behaviour.Behaviour) -> int:
         """Append *node*; return the level of the Sequence it went into."""
         if self.part is None and len(self.top.children) < CHUNK:
-            self.top.add_child(node)
+            self.top.append_child(node)
             return self.top_level
         if self.part is None:  # first overflow: move what is there into part 1
             moved = list(self.top.children)
             self.top.remove_all_children()
             self.part = self._new_part()
-            self.part.add_children(moved)
+            for moved_node in moved:
+                self.part.append_child(moved_node)
         if len(self.part.children) >= CHUNK:
             self.part = self._new_part()
-        self.part.add_child(node)
+        self.part.append_child(node)
         return self.top_level + 1
 
     def _new_part(self) -> Sequence:

@@ -184,6 +184,18 @@ class Sequence(py_trees.composites.Sequence):
     see the class name ``Sequence`` (``tests/test_composites.py`` ticks them beside py_trees' own).
     """
 
+    def append_child(self, child: py_trees.behaviour.Behaviour) -> None:
+        """``add_child`` without its return value, the child's ``id``: a node of the control-flow keys
+        (:class:`~btgen_pytrees.leaves.control.Lean`) makes its UUID when the id is first read, which
+        ``add_child`` would do for nothing where the caller drops it (the generator's chains, one per entry
+        with control keys). The same checks, in the same order, and the same effect."""
+        if not isinstance(child, py_trees.behaviour.Behaviour):
+            raise TypeError(f"children must be behaviours, but you passed in {type(child)}")
+        self.children.append(child)
+        if child.parent is not None:
+            raise RuntimeError(f"behaviour '{child.name}' already has parent '{child.parent.name}'")
+        child.parent = self
+
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         """One tick: the steps of ``py_trees.composites.Sequence.tick`` in its order (see the class).
 

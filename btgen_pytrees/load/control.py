@@ -28,7 +28,7 @@ from .context import Checker
 from .values import SURROGATE
 from .words import shown, suggest
 
-__all__ = ["CONTROL_KEYS", "control_fits", "entry_control", "finish_control"]
+__all__ = ["CONTROL_KEYS", "control_fits", "control_key", "entry_control", "finish_control"]
 
 CONTROL_KEYS = ("when", "edge", "delay", "timeout", "attempts", "repeat", "stops", "race")
 """An entry's control-flow keys, in the order docs/format.md lists them."""
@@ -74,6 +74,30 @@ def control_fits(raw: Mapping[str, Any]) -> int:
             ok = type(value) is str and bool(_ID(value))
         if not ok:
             return -1
+    return found
+
+
+def control_key(raw: Mapping[str, Any]) -> Any:
+    """A hashable key of *raw*'s control keys and their values, for the entry loop's memo of built controls
+    (:meth:`~.entries.Entries.add_all`): entries with the same keys share one :class:`Control` (it is immutable),
+    checked and built once - a case writes the same few keys on many entries.
+
+    Each value's type is part of the key, as in :func:`~.entries.params_key`: ``1``, ``1.0`` and ``True``
+    are equal in Python but not to a JSON Schema. ``None`` when a value cannot be a key (a list holding a
+    list or an object: checked every time).
+    """
+    parts = []
+    for key in CONTROL_KEYS:
+        if key in raw:
+            value = raw[key]
+            if type(value) is list:
+                value = (tuple(value), tuple(map(type, value)))
+            parts.append((key, type(value), value))
+    found = tuple(parts)
+    try:
+        hash(found)
+    except TypeError:
+        return None
     return found
 
 

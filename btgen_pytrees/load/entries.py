@@ -34,10 +34,10 @@ from typing import Any, Iterable, Mapping
 from ..errors import PathPart, Problem
 from ..leaves import Registry
 from ..contracts.registry import LeafType
-from ..model import DEFAULT_JOIN, EMPTY, Entry
+from ..model import DEFAULT_JOIN, EMPTY, Control, Entry
 from ..validator import SchemaValidator
 from .context import Checker, freeze
-from .control import CONTROL_KEYS, build_control, control_fits, entry_control
+from .control import CONTROL_KEYS, build_control, control_fits, control_key, entry_control
 from ..expressions import ExpressionError
 from .read import NotStreamed
 from .schema import inline_refs, schema
@@ -180,6 +180,7 @@ class Entries:
         self.doubtful: list[tuple[int, Any]] = []  # entries whose conditions failed (with words)
         self.count_keys = False  # count the keys of the dicts read (entries read without the duplicate-key hook)
         self.keys = 0
+        self.controls: dict[Any, Control] = {}  # control_key -> the Control built for it (shared: it is immutable)
 
     def doubt(self, i: int, raw: Any) -> None:
         """A condition failed for entry *i*: its problems are worded after the loop (or, without words, read whole)."""
@@ -198,7 +199,7 @@ class Entries:
         joins, name_min, name_max = rules.joins, rules.name_min, rules.name_max
         default_join, join_known, count_keys = self.default_join, self.join_known, self.count_keys
         surrogate, new_id, new_entry, doubt = SURROGATE.search, ids.add, entries.append, self.doubt
-        keys = self.keys
+        keys, controls = self.keys, self.controls
         for raw in items:
             i = len(entries)
             if type(raw) is not dict:
@@ -207,9 +208,13 @@ class Entries:
             id_, kind, action, params, listed, join, name = map(raw.get, _FIELDS)
             # null is no valid value of any field, so this says: no other key, none null
             controlled = len(raw) - 3 - (params is not None) - (listed is not None) - (join is not None) - (name is not None)
-            if controlled and control_fits(raw) != controlled:  # other keys: control keys of the right shape only
-                doubt(i, raw)
-                continue
+            control = None
+            if controlled:  # other keys: control keys of the right shape only - or the very keys of an entry built before
+                control_seen = control_key(raw)
+                control = controls.get(control_seen) if control_seen is not None and len(control_seen) == controlled else None
+                if control is None and control_fits(raw) != controlled:
+                    doubt(i, raw)
+                    continue
             if type(id_) is not str or type(action) is not str or id_ in ids:
                 doubt(i, raw)  # (the ids' pattern and length: all at once, in check_ids())
                 continue
@@ -257,13 +262,14 @@ class Entries:
             new_id(id_)
             if count_keys:
                 keys += len(raw) + (len(params) if params else 0)
-            control = None
-            if controlled:  # its control keys, built here; their names are checked with the whole document (finish_control)
+            if controlled and control is None:  # its control keys, built here; their names are checked with the whole document (finish_control)
                 try:
                     control = build_control(raw)
                 except ExpressionError:
                     doubt(i, raw)
                     continue
+                if control_seen is not None:
+                    controls[control_seen] = control
             if leaf.later:
                 if params:
                     if count_keys:

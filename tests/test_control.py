@@ -111,9 +111,11 @@ def test_an_attempt_that_succeeds_ends_the_entry() -> None:
 
 def test_timeout_inside_attempts_times_each_attempt() -> None:
     a = {**entry("A", duration=5), "timeout": 1, "attempts": 2}
-    report = run(load(case(a)))
+    report, lines = traced(case(a))
     assert results(report)["A"] == ("failure", 0.0, 2.0)
     assert report.execute[0].message == "attempt 2 of 2 failed: timed out after 1 s"
+    # the retry's line says why the attempt before failed: its timeout, not the action's progress ("1/5 s")
+    assert "1 attempt A 2 of 2 after: timed out after 1 s" in lines
 
 
 def test_repeat_runs_in_a_row_and_waits_for_when_again() -> None:
@@ -362,6 +364,93 @@ def test_btcpp_export_uses_btcpps_own_decorators_and_the_btlog_records_them() ->
     assert {uids["repeat 2"], uids["2 attempts"], uids["timeout 1 s"]} <= changed
 
 
+def every_key_case() -> dict:
+    """All eight keys and a ``stop``: K (when, edge, delay, timeout, attempts, stops L), T (timeout, attempts), P (when,
+    repeat), a race of A1 and A2; the stop fires at 1.5 s (x = 5 t rises through 6 at 1.4 s, then 0.1 s)."""
+    return case(ramp_x(), {**entry("K", duration=0.1), "when": "x > 3 && x < 100", "edge": "rising", "delay": 0.2,
+                           "timeout": 1, "attempts": 2, "stops": ["L"]},
+                entry("L", duration=5), {**entry("T", duration=0.2), "timeout": 0.3, "attempts": 3},
+                {**entry("P", duration=0.5), "when": "x >= 0", "repeat": 3}, {**entry("A1", duration=0.2), "race": "r"},
+                {**entry("A2", duration=0.6), "race": "r"}, signals={"x": 0},
+                stop=[{"when": "x > 6", "edge": "rising", "delay": 0.1}])  # fmt: skip
+
+
+def test_the_explanation_says_where_each_entry_was_when_the_run_timed_out() -> None:
+    data = every_key_case()
+    del data["stop"]
+    data["timeout"] = 0.8  # P's second repetition runs (0.5-1.0), K waits for x > 3 rising (fires at 0.7, + 0.2 s)
+    report = run(load(data))
+    assert report.verdict == "timeout"
+    assert results(report)["P"] == ("running", 0.0, None) and results(report)["A2"] == ("stopped", 0.0, 0.3)
+    messages = {e.id: e.message for e in report.execute}
+    assert messages["P"] == "repetition 2 of 3 running at the timeout" and messages["A2"] == "lost the race to A1"
+    assert messages["K"] == "waiting (when x > 3 && x < 100 (rising), delay 0.2 s)"
+    why = [str(line) for line in report.explanation]
+    assert "  P running since 0 s (0.8 s): repetition 2 of 3 running at the timeout" in why
+    assert "  K waiting (when x > 3 && x < 100 (rising), delay 0.2 s)" in why
+
+
+def test_every_view_and_export_carries_the_eight_keys_and_the_stop() -> None:
+    """The tree ticked once for the run, then each view of the tree and of the run: ASCII, dot (the SVG's source), JSON,
+    the replay page's nodes, BT.CPP XML with BehaviorTree.CPP's own nodes, and the .btlog (its tree and transitions)."""
+    import xml.etree.ElementTree as ET
+
+    from btgen_pytrees.render import text_tree, tree_data
+    from btgen_pytrees.render.btcpp import btcpp_xml
+    from btgen_pytrees.render.dot import dot_source
+    from btgen_pytrees.run.btlog import btlog_bytes, parse_btlog
+    from btgen_pytrees.run.replay import replay_html
+
+    loaded = load(every_key_case())
+    report = run(loaded)
+    assert results(report) == {"R": ("stopped", 0.0, None), "K": ("success", 0.9, 1.0), "L": ("stopped", 0.0, 1.0),
+                               "T": ("success", 0.0, 0.2), "P": ("stopped", 0.0, None), "A1": ("success", 0.0, 0.2),
+                               "A2": ("stopped", 0.0, 0.3)}  # fmt: skip
+    words = ["when x > 3 && x < 100 (rising), delay 0.2 s, timeout 1 s, 2 attempts, stops L", "timeout 0.3 s, 3 attempts", "when x >= 0, repeat 3", "race r",
+             "ends the run when x > 6 (rising edge) + 0.1 s"]  # fmt: skip
+    text = text_tree(generate(loaded), unicode=False)
+    dot = " ".join(dot_source(generate(loaded)).replace("\\n", " ").split())
+    page = replay_html(report, loaded, generate(loaded)).decode("utf-8")
+    notes = " ".join(row[2] for row in json.loads(page.split('id="run-data">')[1].split("</script>")[0])["nodes"])
+    for view, shown in (("ascii", text), ("dot", dot), ("replay", notes)):
+        for w in words:
+            assert w in shown, (view, w)
+    controls, stop, stack = {}, None, [tree_data(generate(loaded))]
+    while stack:
+        node = stack.pop()
+        stack.extend(node["children"])
+        if "control" in node:
+            controls[node["id"]] = node["control"]
+        stop = node.get("stop", stop)
+    assert controls == {"K": {"when": "x > 3 && x < 100", "edge": "rising", "delay": 0.2, "timeout": 1.0, "attempts": 2,
+                              "stops": ["L"]}, "L": {},
+                        "T": {"timeout": 0.3, "attempts": 3}, "P": {"when": "x >= 0", "repeat": 3},
+                        "A1": {"race": "r"}, "A2": {"race": "r"}}  # fmt: skip
+    assert stop == [{"when": "x > 6", "edge": "rising", "delay": 0.1}]
+    log = parse_btlog(btlog_bytes(report.trace, generate(loaded)))
+    for xml in (btcpp_xml(generate(loaded)), log.xml):  # BT.CPP's file, and the .btlog's (Groot2's: the tags are IDs)
+        tree = ET.fromstring(xml).find("BehaviorTree")
+        named = {e.get("name"): e for e in tree.iter() if (e.get("ID") or e.tag) == "Controlled"}
+        assert named["K"].get("stops") == "L" and named["A1"].get("race") == named["A2"].get("race") == "r"
+        gate = next(e for e in named["K"] if (e.get("ID") or e.tag) == "Gate")
+        assert (gate.get("when"), gate.get("edge"), gate.find("./Delay").get("delay_msec")) == ("x > 3 && x < 100", "rising",
+                                                                                              "200")  # fmt: skip
+        assert gate.find("./Delay/RetryUntilSuccessful/Timeout").get("msec") == "1000"
+        assert named["T"].find("./RetryUntilSuccessful").get("num_attempts") == "3"
+        assert named["T"].find("./RetryUntilSuccessful/Timeout").get("msec") == "300"
+        assert named["P"].find("./Repeat").get("num_cycles") == "3"
+        guard = next(e for e in tree.iter() if (e.get("ID") or e.tag) == "StopGuard")
+        assert (guard.get("when"), guard.get("edge"), guard.get("delay_msec")) == ("x > 6", "rising", "100")
+    uids = {(e.tag, e.get("name")): int(e.get("_uid")) for e in ET.fromstring(log.xml).iter() if e.get("_uid")}
+    seen: dict[int, set[int]] = {}
+    for _, uid, status in log.transitions:  # BT.CPP's codes: 0 idle, 1 running, 2 success, 3 failure
+        seen.setdefault(uid, set()).add(status)
+    assert 3 in seen[uids["Controlled", "L"]] and 3 in seen[uids["Controlled", "A2"]]  # stopped: the entry failed
+    assert {1, 2} <= seen[uids["Gate", "when x > 3 && x < 100 (rising), delay 0.2 s"]] and 1 in seen[uids["Repeat", "repeat 3"]]
+    assert {1, 2} <= seen[uids["RetryUntilSuccessful", "3 attempts"]] and {1, 2} <= seen[uids["Timeout", "timeout 0.3 s"]]
+    assert 2 in seen[uids["StopGuard", "stop when x > 6 (rising), delay 0.1 s"]]  # the stop fired: it succeeded
+
+
 @pytest.mark.skipif(importlib.util.find_spec("libsumo") is None and not os.environ.get("CI"),
                     reason="libsumo is not installed (pip install -e '.[sumo]'; CI installs it)")  # fmt: skip
 def test_a_when_on_a_sumo_signal_fires_on_the_tick_the_gap_first_falls_under_20_m() -> None:
@@ -386,9 +475,9 @@ def test_the_benchmark_chains_run_and_differ_only_in_their_keys() -> None:
     assert sum(e.control is not None for e in modified.entries) == 4 and all(e.control is None for e in plain.entries)
     a, b = run(plain), run(modified)
     assert a.verdict == b.verdict == "pass" and a.ticks == b.ticks == 41
-    figures = bench.measure((20, 40), rounds=3)
+    figures = bench.measure((20, 40), rounds=2)
     assert figures["sizes"][20]["ticks"] == 21 and figures["sizes"][40]["ticks"] == 41
-    assert all(len(figures["sizes"][n][k]["ratios"]) == 3 for n in (20, 40) for k in ("build", "build_dict", "run"))
+    assert all(len(figures["sizes"][n][k]["ratios"]) == 2 for n in (20, 40) for k in ("build", "build_dict", "run"))
     assert set(figures["run_scaling"]) == {"plain", "modified"}
     text = bench.report(figures)
     assert "load+generate from the file" in text and "from the dict" in text and "1.0 = linear" in text

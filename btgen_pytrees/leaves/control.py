@@ -385,6 +385,10 @@ class Controlled(py_trees.decorators.Decorator, Lean):
         self.events.append((now, event, text))
 
     def retry(self, attempt: int, attempts: int, message: str) -> None:
+        """Attempt *attempt* starts: the last one failed with the action's *message* - or timed out, which says so
+        (as :meth:`failure` does for the last: the action's own message is only its progress then)."""
+        if self.timed_out:
+            message = f"timed out after {self.control.timeout:g} s"
         self.attempt = attempt
         self.timed_out = False
         now = self.env.now()

@@ -228,7 +228,10 @@ class _Export:
                 return element
             return ET.SubElement(parent, "Delay", name=node.name, delay_msec=str(round(condition.delay * 1000)))
         if isinstance(node, StopGuard):
-            ports = [_Port("when", ";".join(s.when.source for s in node.stops), "the stop conditions, ';'-separated")]
+            ports = [_Port("when", ";".join(s.when.source for s in node.stops), "the stop conditions, ';'-separated"),
+                     _Port("edge", ";".join(s.edge for s in node.stops), "each condition's edge, ';'-separated"),
+                     _Port("delay_msec", ";".join(str(round(s.delay * 1000)) for s in node.stops),
+                           "each condition's delay in milliseconds, ';'-separated")]  # fmt: skip
             return self.custom(parent, "Decorator", ("wiring", "StopGuard"), "StopGuard",
                                "halts the timeline and succeeds when a stop condition fires", node.name, ports)  # fmt: skip
         if isinstance(node, Cuttable):

@@ -94,8 +94,9 @@ def _tree_data(root: py_trees.behaviour.Behaviour) -> list[list[Any]]:
         if role(node) == "composite" and isinstance(node, (Parallel, PySequence, Selector)):
             note = f"{type_name(node)}: {note}" if note else type_name(node)
         item = getattr(node, "btgen_entry", None) or getattr(node, "btgen_criterion", None)
-        rows.append([node.name, style_key(node), note[:80] + ("…" if len(note) > 80 else ""),
-                     stack[-1] if stack else -1, item.id if item is not None else ""])  # fmt: skip
+        if len(note) > 80 and getattr(item, "control", None) is None:  # (an entry's control keys are shown whole:
+            note = note[:80] + "…"  # its stops and race are said nowhere else on the page; the tooltip shows them)
+        rows.append([node.name, style_key(node), note, stack[-1] if stack else -1, item.id if item is not None else ""])
         stack.append(len(rows) - 1)
     return rows
 

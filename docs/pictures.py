@@ -25,6 +25,9 @@ project makes fails the suite.
   pytest does not shorten its summary lines), this repository first on ``PYTHONPATH``. ARGS must
   hold ``-q``: pytest's header names the machine (its Python, plugins, paths). The duration pytest
   ends with (``1 failed in 0.52s``) is left out (``1 failed``): a time is never the same twice.
+* ``<!-- sample python: ARGS -->`` is the output of ``python ARGS`` (a program shown in the doc, written
+  to a scratch directory as below), run in a child process as a pytest sample is, after a line
+  ``$ python ARGS`` when the block starts so.
 
 Before the ``:``, ``(NAME = SOURCE, NAME = SOURCE...)`` runs the command in a scratch directory holding
 each file NAME (a relative path; folders are made), made from SOURCE: ``the block above`` (the doc's
@@ -43,7 +46,7 @@ hand:
 * ``| usage`` keeps argparse's usage, the lines up to the first blank line (a command's synopsis).
 
 ``lines`` and ``section`` show each run of lines left out as one line ``...``. A rule that keeps
-nothing is an error. Commands other than pytest run in this process. Text is compared exactly.
+nothing is an error. The commands of ``btgen_pytrees`` run in this process. Text is compared exactly.
 
 **Pictures** (:data:`PICTURES`, recorded in ``docs/images/pictures.json``). Rendered pictures are
 not byte-stable across machines: Chromium's screenshots differ with its version and fonts,
@@ -86,7 +89,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 IMAGES = ROOT / "docs" / "images"
 RECORD = IMAGES / "pictures.json"
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-SAMPLE = re.compile(r"^<!-- sample(?P<pytest> pytest)?(?: \((?P<inputs>[^)]+)\))?(?: file: (?P<file>\S+)|: (?P<args>.+?))? -->\n"
+SAMPLE = re.compile(r"^<!-- sample(?: (?P<kind>pytest|python))?(?: \((?P<inputs>[^)]+)\))?(?: file: (?P<file>\S+)|: (?P<args>.+?))? -->\n"
                     r"(?P<fence>```\w*\n)(?P<body>.*?)^```", re.S | re.M)  # fmt: skip
 FENCE = re.compile(r"^```\w*\n(.*?)^```", re.S | re.M)
 PROMPT = "$ python -m btgen_pytrees "
@@ -160,19 +163,33 @@ def cli(args: list[str], cwd: pathlib.Path = ROOT) -> str:
     return both.buffer.getvalue().decode("utf-8")  # type: ignore[attr-defined]
 
 
+def child(argv: list[str], cwd: pathlib.Path) -> str:
+    """What ``python ARGV`` prints from *cwd* in a child process (see the module's docstring), stdout then stderr."""
+    env = {name: value for name, value in os.environ.items()
+           if not name.startswith("PYTEST_") and name not in ("CI", "BUILD_NUMBER")}  # on CI pytest does not shorten lines
+    env.update(COLUMNS="80", PY_COLORS="0", PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, *argv], cwd=cwd, env=env, capture_output=True, encoding="utf-8", timeout=300, check=False)
+    return done.stdout + done.stderr
+
+
 def pytest_output(args: list[str], cwd: pathlib.Path = ROOT) -> str:
     """What ``pytest ARGS`` prints from *cwd* (a child process; see the module's docstring), its duration left out."""
     if not {"-q", "--quiet"} & set(args):
         raise ValueError(f"a pytest sample needs -q (pytest's header names the machine): {shlex.join(args)}")
-    env = {name: value for name, value in os.environ.items()
-           if not name.startswith("PYTEST_") and name not in ("CI", "BUILD_NUMBER")}  # on CI pytest does not shorten lines
-    env.update(COLUMNS="80", PY_COLORS="0", PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")])))
-    done = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:randomly", "-p", "no:cacheprovider", "-p", "no:hypothesispytest", *args],
-                          cwd=cwd, env=env, capture_output=True, encoding="utf-8", timeout=300, check=False)  # fmt: skip
-    lines = (done.stdout + done.stderr).splitlines()
+    lines = child(["-m", "pytest", "-p", "no:randomly", "-p", "no:cacheprovider", "-p", "no:hypothesispytest", *args], cwd).splitlines()
     if lines:
         lines[-1] = DURATION.sub("", lines[-1])
     return "".join(line + "\n" for line in lines)
+
+
+def python_output(args: list[str], cwd: pathlib.Path = ROOT) -> str:
+    """What ``python ARGS`` prints from *cwd* (a child process: a program that changes its process changes no other)."""
+    return child(args, cwd)
+
+
+RUNNERS: dict[str | None, tuple[str, Callable[[list[str], pathlib.Path], str]]] = {
+    None: (PROMPT, cli), "pytest": ("$ pytest ", pytest_output), "python": ("$ python ", python_output)}
+"""Each sample kind's prompt and what runs it."""
 
 
 # -- sample outputs ---------------------------------------------------------------------------------------
@@ -226,8 +243,9 @@ def sample_text(match: re.Match[str]) -> str:
     if match["args"]:
         parts = EXCERPT.fullmatch(match["args"])
         assert parts is not None  # every text matches
-        args, run = (parts["args"], pytest_output) if match["pytest"] else (parts["args"], cli)
-        typed = ("$ pytest " if match["pytest"] else PROMPT) + args
+        args = parts["args"]
+        typed, run = RUNNERS[match["kind"]]
+        typed += args
         prompt = typed + "\n" if match["body"].startswith("$ ") else ""
         corpus = IN_CORPUS.fullmatch(match["inputs"] or "")
         if corpus:

@@ -47,8 +47,6 @@ STATES = ("startTransition", "endTransition", "stopTransition", "skipTransition"
           "standbyState")  # fmt: skip
 MAX_EXECUTIONS = 100
 """Largest ``maximumExecutionCount`` of an Event (each execution is a copy of its entries)."""
-_SUPPORTED_STATES = {"startTransition": "", "endTransition": "", "skipTransition": "", "stopTransition": "", "runningState": "== 1",
-                     "completeState": "== 2", "standbyState": "== 0"}  # fmt: skip
 _QUIET = "@@quiet@@"  # no other event of the maneuver running: filled in once the maneuver's events are known
 
 _BAD = re.compile(r"[^A-Za-z0-9_-]")
@@ -79,7 +77,6 @@ class Element:
     children: list["Element"] = field(default_factory=list)
     actions: list[str] = field(default_factory=list)  # entry ids of an action element / an event's actions
     state: str | None = None  # the state signal, when one is needed
-    markers: list[str] = field(default_factory=list)  # an event's entry per execution
     executions: list["Execution"] = field(default_factory=list)
     transitions: dict[str, str] = field(default_factory=dict)  # start/end/skip -> its signal, when one is needed
     entry_points: list[dict[str, Any]] = field(default_factory=list)  # its first entry in each execution of its parent
@@ -455,7 +452,6 @@ class Timeline:
                 event.id = e["id"]
             if run == 0:
                 event.entry_points.append(e)
-            event.markers.append(e["id"])
             begin, skip, branches = e["id"], None, []
             if skips:  # 8.4.2.2: triggered while another event of the maneuver runs, it is skipped (not started)
                 race = identifier(f"{e['id']}-priority", self.ids)
@@ -612,8 +608,6 @@ class Timeline:
             raise XmlProblem(node, f"storyboardElementType {kind!r} is not one of {', '.join(ELEMENT_TYPES)}")
         if state not in STATES:
             raise XmlProblem(node, f"state {state!r} is not one of {', '.join(STATES)}")
-        if state not in _SUPPORTED_STATES:
-            raise XmlProblem(node, f"state {state} is not supported ({', '.join(_SUPPORTED_STATES)} are)")
         if state.endswith("Transition") and self.repeating:
             raise XmlProblem(node, f"a {state} in the trigger of an element executed more than once is not supported "
                                    "(a transition is read as 'has happened': it would start every further execution at once)")  # fmt: skip

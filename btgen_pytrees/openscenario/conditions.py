@@ -188,6 +188,8 @@ class ConditionWriter:
             if target.tag == "ByType":
                 raise XmlProblem(target, "CollisionCondition ByType is not supported; name an entity")
             raise XmlProblem(target, f"unknown collision target {target.tag}")
+        if tag in ("ReachPositionCondition", "DistanceCondition") and _relative_object(c) is not None:
+            return self.to_entity_point(c, _relative_object(c), t)  # type: ignore[arg-type]
         if tag in ("ReachPositionCondition", "DistanceCondition") and self.position is not None:
             x, y = self.position(c.need_child("Position"))
             dx, dy = f"({t}.ref_x {'-' if x >= 0 else '+'} {number(abs(x))})", f"({t}.ref_y {'-' if y >= 0 else '+'} {number(abs(y))})"
@@ -203,6 +205,46 @@ class ConditionWriter:
             op = self.rule(c)
             return f"{dx} * {dx} + {dy} * {dy} {op} {number(value * value)}"
         raise XmlProblem(c, f"unsupported condition {tag}")
+
+
+    def to_entity_point(self, c: Node, position: Node, t: str) -> str:
+        """ReachPosition/Distance to a ``RelativeObjectPosition`` (entity R, ``dx``, ``dy`` in R's own axes):
+        the distance from the triggering entity's reference point to that point moves with R, so it is read
+        from R's own view of the entity, ``R.E.dx``/``R.E.dy`` (a distance does not depend on the axes it is
+        measured in). In ``road``/``lane`` coordinates it is ``sqrt(ds² + dt²)`` to R's reference point itself."""
+        s = self.scope
+        ref = self.entity(position)
+        dx, dy = s.number(position, "dx"), s.number(position, "dy")
+        s.number(position, "dz", 0.0)  # a height: distances are measured in the road plane
+        orientation = position.child("Orientation")
+        if orientation is not None:  # the point's heading: no part of a distance to it
+            orientation.use_all()
+        if c.tag == "ReachPositionCondition":
+            system, value, op = "entity", s.number(c, "tolerance"), "<="
+        else:
+            if s.boolean(c, "freespace"):
+                raise XmlProblem(c, "DistanceCondition with freespace to a position is not supported")
+            s.text(c, "alongRoute")
+            system = s.choice(c, "coordinateSystem", ("entity", "road", "lane"), "entity")
+            s.choice(c, "relativeDistanceType", ("cartesianDistance", "euclidianDistance"), "euclidianDistance")
+            value, op = s.number(c, "value"), self.rule(c)
+        if t == ref:
+            raise XmlProblem(position, f"the triggering entity {t!r} measured against a point of its own: not supported")
+        if system != "entity":
+            if dx != 0 or dy != 0:
+                raise XmlProblem(position, f"a RelativeObjectPosition with dx or dy in {system} coordinates is not supported (dx=0, dy=0 is)")
+            return f"{t}.{ref}.ds * {t}.{ref}.ds + {t}.{ref}.dt * {t}.{ref}.dt {op} {number(value * value)}"
+        ex = f"({ref}.{t}.dx {'-' if dx >= 0 else '+'} {number(abs(dx))})"
+        ey = f"({ref}.{t}.dy {'-' if dy >= 0 else '+'} {number(abs(dy))})"
+        return f"{ex} * {ex} + {ey} * {ey} {op} {number(value * value)}"
+
+
+def _relative_object(c: Node) -> Node | None:
+    """The ``RelativeObjectPosition`` a ReachPosition/Distance condition measures to, if it is one."""
+    position = c.child("Position")
+    if position is None or len(position.children) != 1 or position.children[0].tag != "RelativeObjectPosition":
+        return None
+    return position.children[0].use()
 
 
 def _compare(left: object, right: object, op: str) -> bool:

@@ -112,7 +112,53 @@ def _entity(obj: Node, scope: Scope, catalogs: Catalogs) -> dict[str, Any]:
     for child in body.children:
         if child.tag in ("Axles", "Properties"):  # wheel geometry and free properties: no effect on SUMO's motion
             child.use_all()
+        elif child.tag in ("TrailerHitch", "TrailerCoupler"):  # 1.3: where a trailer would couple; nothing is towed
+            inner.number(child, "dx")
+            child.use()
+        elif child.tag == "Trailer":
+            _no_trailer(child, inner)
     return spec
+
+
+def _no_trailer(trailer: Node, scope: Scope) -> None:
+    """A 1.3 ``Trailer`` that tows nothing - its reference empty, as esmini's catalog writes a car that may
+    tow one (``<EntityRef entityRef="$TrailerRef"/>``, ``TrailerRef`` "" by default) - is read; a towed
+    trailer is refused: SUMO drives no coupled vehicles."""
+    ref = trailer.use().only()
+    if ref.tag == "EntityRef":
+        named = scope.text(ref, "entityRef")
+    elif ref.tag == "CatalogReference":
+        named = scope.text(ref, "entryName")
+        scope.text(ref, "catalogName")
+        ref.use_all()
+    else:
+        named = ref.tag
+    if named:
+        raise XmlProblem(trailer, f"a towed Trailer ({named!r}) is not supported")
+
+
+def _placement_order(entities: dict[str, dict[str, Any]], init: Node) -> dict[str, dict[str, Any]]:
+    """The entities in the file's order, except that one placed (or given its speed) relative to another
+    comes after that one: the Init's actions all apply at time 0 (7.6.1), whatever the order of the
+    ``Private`` s - ASAM's SlowPrecedingVehicle places its Ego 200 m behind A1, declared after it - while
+    the SUMO system places its entities one after the other (docs/opendrive.md)."""
+
+    def refs(name: str) -> set[str]:
+        spec = entities[name]
+        found = {p.get("entityRef") for p in spec["position"].values() if isinstance(p, dict)}
+        if isinstance(spec.get("speed"), dict):
+            found.add(spec["speed"].get("entityRef"))
+        return {r for r in found if r in entities and r != name}
+
+    ordered: dict[str, dict[str, Any]] = {}
+    pending = list(entities)
+    while pending:
+        ready = next((n for n in pending if refs(n) <= ordered.keys()), None)
+        if ready is None:
+            raise XmlProblem(init, f"entities {', '.join(map(repr, pending))} are placed relative to each other in a circle")
+        ordered[ready] = entities[ready]
+        pending.remove(ready)
+    return ordered
 
 
 def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = None, options: Options | None = None,
@@ -208,6 +254,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     for name, spec in entities.items():
         if "position" not in spec:
             raise XmlProblem(init, f"entity {name!r} has no TeleportAction in Init: its place at time 0 is unknown")
+    entities = _placement_order(entities, init)
     motion = Motion(entities)
     motion.init_speeds()
     for pa, actor, params in follow:

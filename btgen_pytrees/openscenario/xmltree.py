@@ -27,6 +27,10 @@ MAX_XML_BYTES = 16 * 1024 * 1024
 MAX_DEPTH = 64
 """Deepest element nesting accepted (the standard's deepest path is about 20 levels)."""
 
+XSI = "{http://www.w3.org/2001/XMLSchema-instance}"
+"""The XML Schema instance namespace: ``xsi:noNamespaceSchemaLocation`` (every ASAM example names its
+schema so) and ``xsi:schemaLocation`` are for validators, not OpenSCENARIO attributes: read, not reported."""
+
 CAUSE = "openscenario"
 """The cause of every problem this package reports."""
 
@@ -171,6 +175,7 @@ def read_xml(path: str) -> Node:
         raise InvalidTestCase([Problem((), f"not readable XML: {exc}", CAUSE)], path) from None
     top = Node(root.tag, dict(root.attrib), (root.tag,), path)
     top.text = (root.text or "").strip()
+    top.read.update(k for k in top.attrs if k.startswith(XSI))
     stack = [(root, top, 1)]
     while stack:
         element, node, depth = stack.pop()
@@ -186,6 +191,7 @@ def read_xml(path: str) -> Node:
             attrs = dict(k.attrib)
             child = Node(k.tag, attrs, (*node.path, _label(k.tag, attrs, seen[k.tag], counts[k.tag])), path)
             child.text = (k.text or "").strip()
+            child.read.update(a for a in attrs if a.startswith(XSI))
             node.children.append(child)
             stack.append((k, child, depth + 1))
     return top

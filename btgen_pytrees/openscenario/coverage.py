@@ -4,7 +4,9 @@ Every ``.xosc`` file under a directory is read as the loader reads it (catalog f
 through the scenarios that use them, not on their own). For each file: its kind (scenario,
 distribution, catalog), whether it converts, its problems; and over all files, per element name,
 how often it occurs and how often the conversion used it. An element of a file that could not be
-converted past a problem counts as *unknown* beyond that problem, never as supported. The result is
+converted past a problem counts as *not reached* beyond that problem - neither supported nor known to be
+unsupported (a file whose conversion stopped at its first problem says nothing of the elements after it:
+``TeleportAction`` is no less supported for an ``EnvironmentAction`` before it). The result is
 data (:func:`coverage`), shown as a table (:func:`table`, :func:`markdown`) or as JSON
 (``schemas/coverage.schema.json``).
 """
@@ -40,10 +42,14 @@ def _files(top: str) -> Iterator[str]:
     yield from sorted(found)[:MAX_FILES]
 
 
-def _tally(root: Node, into: dict[str, Counter[str]]) -> None:
+def _tally(root: Node, into: dict[str, Counter[str]], stopped: bool = False, at: Node | None = None) -> None:
+    """Count *root*'s elements: used ones supported; when the conversion *stopped* (at the element *at*, whose
+    subtree is unsupported), the other unused ones not reached."""
+    failed = {id(n) for n in at.walk()} if at is not None else set()
     for node in root.walk():
         into.setdefault(node.tag, Counter())["total"] += 1
-        into[node.tag]["supported" if node.used else "unsupported"] += 1
+        kind = "supported" if node.used else "unreached" if stopped and id(node) not in failed else "unsupported"
+        into[node.tag][kind] += 1
 
 
 def coverage(top: str) -> dict[str, Any]:
@@ -65,6 +71,7 @@ def coverage(top: str) -> dict[str, Any]:
             continue  # counted through the scenarios that use its entries
         problems: list[str] = []
         catalogs = None
+        stopped, at = False, None
         forget()  # this file's catalog entries only
         try:
             root.use()
@@ -75,29 +82,32 @@ def coverage(top: str) -> dict[str, Any]:
                 _, catalogs = convert_scenario(root, path, options=Options())
         except XmlProblem as exc:
             problems.append(f"{'/' + '/'.join(exc.node.path) if exc.node else '/'}: {exc.message}")
+            stopped, at = True, exc.node
             if exc.node is not None:  # the element the conversion stopped at, and what it holds: not supported
                 for node in exc.node.walk():
                     node.used = False
         except InvalidTestCase as exc:
             problems.extend(f"{p.pointer}: {p.message}" for p in exc.problems)
+            stopped = True
         if not problems:
             from_scan = scan(root, catalogs) if catalogs is not None else scan(root, _NoCatalogs())
             problems.extend(f"{p.pointer}: {p.message}" for p in from_scan)
-        _tally(root, elements)
+        _tally(root, elements, stopped, at)
         if catalogs is not None:
             for cat in catalogs.files:
                 for catalog in cat.children:
                     for item in catalog.children:
                         if item.used:
-                            _tally(item, elements)
+                            _tally(item, elements, stopped, at)
         entry.update(converts=not problems, problems=problems)
         files.append(entry)
-    rows = [{"element": tag, "occurrences": c["total"], "supported": c["supported"], "unsupported": c["unsupported"]}
-            for tag, c in sorted(elements.items())]  # fmt: skip
+    rows = [{"element": tag, "occurrences": c["total"], "supported": c["supported"], "unsupported": c["unsupported"],
+             "unreached": c["unreached"]} for tag, c in sorted(elements.items())]  # fmt: skip
     converted = [f for f in files if f.get("kind") in ("scenario", "distribution")]
     return {"directory": os.path.basename(os.path.normpath(top)), "files": converted,
             "elements": rows, "summary": {"files": len(converted), "converting": sum(f["converts"] for f in converted),
-                                          "elements": len(rows), "fully_supported": sum(r["unsupported"] == 0 for r in rows)}}  # fmt: skip
+                                          "elements": len(rows), "fully_supported": sum(r["unsupported"] == r["unreached"] == 0 for r in rows),
+                                          "unreached": sum(r["unreached"] > 0 for r in rows)}}  # fmt: skip
 
 
 class _NoCatalogs:
@@ -111,23 +121,29 @@ def table(data: dict[str, Any]) -> str:
         lines.append(f"{f['file'][:70]:<70} {f['kind']:<12} {'ok' if f['converts'] else str(len(f['problems'])) + ' problem(s)'}")
         lines.extend(f"    {p}" for p in f["problems"][:5])
     lines.append("")
-    lines.append(f"{'element':<45} {'occurrences':>11} {'supported':>9} {'unsupported':>11}")
+    lines.append(f"{'element':<45} {'occurrences':>11} {'supported':>9} {'unsupported':>11} {'not reached':>11}")
     for r in data["elements"]:
-        lines.append(f"{r['element']:<45} {r['occurrences']:>11} {r['supported']:>9} {r['unsupported']:>11}")
-    s = data["summary"]
+        lines.append(f"{r['element']:<45} {r['occurrences']:>11} {r['supported']:>9} {r['unsupported']:>11} {r['unreached']:>11}")
     lines.append("")
-    lines.append(f"{s['converting']} of {s['files']} files convert; {s['fully_supported']} of {s['elements']} element names fully supported")
+    lines.append(_summary(data["summary"]))
     return "\n".join(lines) + "\n"
+
+
+def _summary(s: dict[str, Any]) -> str:
+    line = f"{s['converting']} of {s['files']} files convert; {s['fully_supported']} of {s['elements']} element names fully supported"
+    if s["unreached"]:
+        line += f"; {s['unreached']} not reached where a file's conversion stopped at its first problem"
+    return line
 
 
 def markdown(data: dict[str, Any]) -> str:
     """The elements table as Markdown (the table docs/openscenario.md shows)."""
-    lines = ["| element | occurrences | supported |", "|---|---:|---:|"]
+    reached = not any(r["unreached"] for r in data["elements"])  # the column only where a conversion stopped
+    lines = ["| element | occurrences | supported |" + ("" if reached else " not reached |"), "|---|---:|---:|" + ("" if reached else "---:|")]
     for r in data["elements"]:
-        lines.append(f"| `{r['element']}` | {r['occurrences']} | {r['supported']} |")
-    s = data["summary"]
+        lines.append(f"| `{r['element']}` | {r['occurrences']} | {r['supported']} |" + ("" if reached else f" {r['unreached']} |"))
     lines.append("")
-    lines.append(f"{s['converting']} of {s['files']} files convert; {s['fully_supported']} of {s['elements']} element names fully supported.")
+    lines.append(_summary(data["summary"]) + ".")
     return "\n".join(lines) + "\n"
 
 

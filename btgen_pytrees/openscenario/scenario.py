@@ -180,7 +180,9 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     logic = road_node.need_child("LogicFile")
     road = scope.text(logic, "filepath") or ""
     if not os.path.isfile(os.path.join(base, road)):
-        raise XmlProblem(logic, f"road network {road!r} not found (looked for {os.path.join(base, road)!r})")
+        hint = "" if road.lower().endswith(".xodr") else (
+            "; LogicFile names an OpenDRIVE .xodr file - a CARLA town (Town04) is a map inside CARLA: give its .xodr")
+        raise XmlProblem(logic, f"road network {road!r} not found (looked for {os.path.join(base, road)!r}){hint}")
     for child in road_node.children:
         if child.tag == "SceneGraphFile":  # 3D model for visualisation
             child.use_all()

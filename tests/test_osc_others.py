@@ -1,0 +1,182 @@
+"""OpenSCENARIO files as other authors write them (docs/openscenario.md, "Tried on other authors'
+scenarios"): each test is a small scenario of our own with the one trait that an ASAM, esmini or CARLA
+example has and that the importer once refused or mistook - the schema reference on the root, an entity
+placed relative to one declared after it, a distance to a point relative to an entity, a vehicle that
+could tow a trailer and tows none, a CARLA town for a road. The files themselves are not copied here."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import pytest
+
+from btgen_pytrees.errors import InvalidTestCase
+from btgen_pytrees.openscenario import read_openscenario
+
+ROAD = (pathlib.Path(__file__).parent.parent / "examples" / "openscenario" / "straight_3lanes.xodr").read_text()
+
+CAR = """<Vehicle name="car" vehicleCategory="car">
+      <BoundingBox><Center x="1.4" y="0" z="0.9"/><Dimensions width="2" length="5" height="1.8"/></BoundingBox>
+      <Performance maxSpeed="70" maxAcceleration="5" maxDeceleration="9"/>{extra}</Vehicle>"""
+
+
+def scenario(init: str, story: str = "", root: str = "<OpenSCENARIO>", ego: str = "", stop: str = "3") -> str:
+    """Ego and Lead on the straight three-lane road of the examples; *init* places them."""
+    return f"""<?xml version="1.0" encoding="utf-8"?>
+{root}
+  <FileHeader revMajor="1" revMinor="3" date="2024-01-01T00:00:00" description="test" author="me"/>
+  <ParameterDeclarations/>
+  <CatalogLocations/>
+  <RoadNetwork><LogicFile filepath="road.xodr"/></RoadNetwork>
+  <Entities>
+    <ScenarioObject name="Ego">{CAR.format(extra=ego)}</ScenarioObject>
+    <ScenarioObject name="Lead">{CAR.format(extra="")}</ScenarioObject>
+  </Entities>
+  <Storyboard>
+    <Init><Actions>{init}</Actions></Init>
+    {story}
+    <StopTrigger><ConditionGroup><Condition name="end" delay="0" conditionEdge="none"><ByValueCondition>
+      <SimulationTimeCondition value="{stop}" rule="greaterOrEqual"/></ByValueCondition></Condition></ConditionGroup></StopTrigger>
+  </Storyboard>
+</OpenSCENARIO>"""
+
+
+def place(entity: str, position: str, speed: float) -> str:
+    return f"""<Private entityRef="{entity}">
+      <PrivateAction><TeleportAction><Position>{position}</Position></TeleportAction></PrivateAction>
+      <PrivateAction><LongitudinalAction><SpeedAction><SpeedActionDynamics dynamicsShape="step" dynamicsDimension="time" value="0"/>
+        <SpeedActionTarget><AbsoluteTargetSpeed value="{speed}"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction>
+    </Private>"""
+
+
+LANE = '<LanePosition roadId="1" laneId="-1" s="{s}" offset="0"/>'
+BEHIND = '<RelativeLanePosition entityRef="{ref}" dLane="0" ds="{ds}"/>'
+BOTH = place("Ego", LANE.format(s=10), 20) + place("Lead", BEHIND.format(ref="Ego", ds=40), 0)
+
+
+def write(tmp_path: pathlib.Path, text: str) -> str:
+    (tmp_path / "road.xodr").write_text(ROAD)
+    (tmp_path / "s.xosc").write_text(text)
+    return str(tmp_path / "s.xosc")
+
+
+def problems(path: str) -> list[str]:
+    with pytest.raises(InvalidTestCase) as info:
+        read_openscenario(path)
+    return [f"{p.pointer}: {p.message}" for p in info.value.problems]
+
+
+def run(tmp_path: pathlib.Path, text: str) -> dict:
+    from btgen_pytrees.cli import main
+    pytest.importorskip("libsumo")
+    path, report = write(tmp_path, text), tmp_path / "r.json"
+    assert main(["run", path, "--json", str(report)]) in (0, 1)
+    return json.loads(report.read_text())
+
+
+def brake_when(condition: str) -> str:
+    """A story whose event (Lead keeps standing: a step to 0) starts when the Ego's *condition* holds."""
+    return f"""<Story name="S"><Act name="A">
+  <ManeuverGroup name="G" maximumExecutionCount="1"><Actors selectTriggeringEntities="false"><EntityRef entityRef="Lead"/></Actors>
+    <Maneuver name="M"><Event name="Near" priority="override">
+      <Action name="Hold"><PrivateAction><LongitudinalAction><SpeedAction>
+        <SpeedActionDynamics dynamicsShape="step" dynamicsDimension="time" value="0"/>
+        <SpeedActionTarget><AbsoluteTargetSpeed value="0"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction></Action>
+      <StartTrigger><ConditionGroup><Condition name="c" delay="0" conditionEdge="none"><ByEntityCondition>
+        <TriggeringEntities triggeringEntitiesRule="any"><EntityRef entityRef="Ego"/></TriggeringEntities>
+        <EntityCondition>{condition}</EntityCondition></ByEntityCondition></Condition></ConditionGroup></StartTrigger>
+    </Event></Maneuver></ManeuverGroup>
+  <StartTrigger><ConditionGroup><Condition name="t0" delay="0" conditionEdge="none"><ByValueCondition>
+    <SimulationTimeCondition value="0" rule="greaterOrEqual"/></ByValueCondition></Condition></ConditionGroup></StartTrigger>
+</Act></Story>"""
+
+
+def test_the_schema_reference_every_asam_example_carries_is_no_unsupported_attribute(tmp_path):
+    root = ('<OpenSCENARIO xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
+            'xsi:noNamespaceSchemaLocation="../Schema/OpenSCENARIO.xsd">')  # fmt: skip
+    doc = read_openscenario(write(tmp_path, scenario(BOTH, root=root)))
+    assert list(doc["system"]["entities"]) == ["Ego", "Lead"]
+    # an attribute of another namespace is still one the conversion does not read
+    other = root.replace("xsi:noNamespaceSchemaLocation", 'xmlns:v="urn:vendor" v:colour="red" xsi:noNamespaceSchemaLocation')
+    assert problems(write(tmp_path, scenario(BOTH, root=other))) == ["/OpenSCENARIO: unsupported attribute {urn:vendor}colour='red' of OpenSCENARIO"]
+
+
+def test_an_entity_placed_relative_to_one_declared_after_it_is_placed_after_it(tmp_path):
+    # ASAM's SlowPrecedingVehicle: the Ego 200 m behind A1, whose Private comes later in the Init
+    init = place("Ego", BEHIND.format(ref="Lead", ds=-40), 20) + place("Lead", LANE.format(s=50), 10)
+    doc = read_openscenario(write(tmp_path, scenario(init)))
+    entities = doc["system"]["entities"]
+    assert list(entities) == ["Lead", "Ego"]  # the SUMO system places them in this order
+    assert entities["Ego"]["position"] == {"RelativeLanePosition": {"entityRef": "Lead", "dLane": 0, "ds": -40.0}}
+    circle = place("Ego", BEHIND.format(ref="Lead", ds=-40), 20) + place("Lead", BEHIND.format(ref="Ego", ds=40), 10)
+    assert problems(write(tmp_path, scenario(circle))) == [
+        "/OpenSCENARIO/Storyboard/Init: entities 'Ego', 'Lead' are placed relative to each other in a circle"]
+
+
+def test_a_distance_to_a_point_relative_to_an_entity_is_measured_from_that_entitys_view(tmp_path):
+    point = '<Position><RelativeObjectPosition entityRef="Lead" dx="{dx}" dy="0"/></Position>'
+    condition = '<DistanceCondition value="5" freespace="false" rule="lessThan">' + point.format(dx=-10) + "</DistanceCondition>"
+    doc = read_openscenario(write(tmp_path, scenario(BOTH, brake_when(condition))))
+    assert next(e for e in doc["execute"] if e["id"] == "Near")["when"] == \
+        "(Lead.Ego.dx + 10) * (Lead.Ego.dx + 10) + (Lead.Ego.dy - 0) * (Lead.Ego.dy - 0) < 25"  # fmt: skip
+    reach = '<ReachPositionCondition tolerance="2">' + point.format(dx=-10) + "</ReachPositionCondition>"
+    doc = read_openscenario(write(tmp_path, scenario(BOTH, brake_when(reach))))
+    assert next(e for e in doc["execute"] if e["id"] == "Near")["when"].endswith("<= 4")
+    road = condition.replace('rule="lessThan"', 'rule="lessThan" coordinateSystem="road"').replace('dx="-10"', 'dx="0"')
+    doc = read_openscenario(write(tmp_path, scenario(BOTH, brake_when(road))))
+    assert next(e for e in doc["execute"] if e["id"] == "Near")["when"] == "Ego.Lead.ds * Ego.Lead.ds + Ego.Lead.dt * Ego.Lead.dt < 25"
+    offset_in_road = road.replace('dx="0"', 'dx="3"')
+    assert problems(write(tmp_path, scenario(BOTH, brake_when(offset_in_road))))[0].endswith(
+        "a RelativeObjectPosition with dx or dy in road coordinates is not supported (dx=0, dy=0 is)")
+
+
+def test_the_distance_to_a_point_behind_a_standing_car_triggers_when_the_ego_is_there(tmp_path):
+    # the Ego (20 m/s from s = 10) comes within 5 m of the point 10 m behind the Lead's reference point
+    # (s = 40) at s = 35: 25 m, 1.25 s. Had dx been taken the other way (s = 60) it would be 2.25 s.
+    point = '<Position><RelativeObjectPosition entityRef="Lead" dx="-10" dy="0"/></Position>'
+    condition = '<DistanceCondition value="5" freespace="false" rule="lessThan">' + point + "</DistanceCondition>"
+    report = run(tmp_path, scenario(BOTH, brake_when(condition)))
+    near = next(e for e in report["execute"] if e["id"] == "Near")
+    assert near["start"] == pytest.approx(1.3, abs=1e-9)  # the first tick (0.1 s) at or after 1.25 s
+
+
+def test_a_vehicle_that_could_tow_a_trailer_and_tows_none_is_read(tmp_path):
+    # ASAM's 1.3 catalog gives car2 a TrailerHitch; esmini's car_white an empty Trailer reference
+    hitch = '<TrailerHitch dx="-1.2"/><Trailer><EntityRef entityRef=""/></Trailer>'
+    doc = read_openscenario(write(tmp_path, scenario(BOTH, ego=hitch)))
+    assert doc["system"]["entities"]["Ego"]["length"] == 5
+    towed = '<TrailerHitch dx="-1.2"/><Trailer><EntityRef entityRef="Lead"/></Trailer>'
+    assert problems(write(tmp_path, scenario(BOTH, ego=towed))) == [
+        "/OpenSCENARIO/Entities/ScenarioObject[@name='Ego']/Vehicle[@name='car']/Trailer: a towed Trailer ('Lead') is not supported"]
+
+
+def test_a_carla_town_for_a_road_is_a_clear_exit_2(tmp_path, capsys):
+    from btgen_pytrees.cli import main
+    path = write(tmp_path, scenario(BOTH).replace('filepath="road.xodr"', 'filepath="Town04_Opt"'))
+    assert main(["validate", path]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{path}: /OpenSCENARIO/RoadNetwork/LogicFile: road network 'Town04_Opt' not found") and \
+        err.rstrip().endswith("a CARLA town (Town04) is a map inside CARLA: give its .xodr") and "Traceback" not in err  # fmt: skip
+
+
+def test_coverage_counts_what_a_stopped_conversion_did_not_reach_as_not_reached(tmp_path, capsys):
+    import jsonschema
+
+    from btgen_pytrees.cli import main
+    weather = """<GlobalAction><EnvironmentAction><Environment name="sunny"><TimeOfDay animation="false" dateTime="2024-01-01T12:00:00"/>
+      </Environment></EnvironmentAction></GlobalAction>"""
+    write(tmp_path, scenario(weather + BOTH))
+    assert main(["coverage", str(tmp_path), "--format", "json"]) == 1
+    data = json.loads(capsys.readouterr().out)
+    schema = json.loads((pathlib.Path(__file__).parent.parent / "schemas" / "coverage.schema.json").read_text())
+    jsonschema.validate(data, schema)
+    rows = {r["element"]: (r["supported"], r["unsupported"], r["unreached"]) for r in data["elements"]}
+    # the conversion stopped at the EnvironmentAction: it (and what it holds) is unsupported, the
+    # teleports after it were not reached - not "unsupported" - and the header before it was used
+    assert rows["EnvironmentAction"] == (0, 1, 0) and rows["TimeOfDay"] == (0, 1, 0)
+    assert rows["TeleportAction"] == (0, 0, 2) and rows["FileHeader"] == (1, 0, 0)
+    assert data["summary"]["unreached"] == sum(1 for r in rows.values() if r[2])
+    assert main(["coverage", str(tmp_path), "--format", "markdown"]) == 1
+    table = capsys.readouterr().out
+    assert "| element | occurrences | supported | not reached |" in table and "| `TeleportAction` | 2 | 0 | 2 |" in table

@@ -430,7 +430,7 @@ def test_coverage_names_unsupported_elements_and_fits_its_schema(tmp_path, capsy
     assert by_file["bad.xosc"]["problems"] == ["/OpenSCENARIO/Storyboard/Story[@name='S']/Act[@name='A']/ManeuverGroup[@name='G']/"
                                                "Maneuver[@name='M']/Frobnicate: unsupported element Frobnicate: not converted (see docs/openscenario.md)"]
     rows = {r["element"]: r for r in data["elements"]}
-    assert rows["Frobnicate"] == {"element": "Frobnicate", "occurrences": 1, "supported": 0, "unsupported": 1}
+    assert rows["Frobnicate"] == {"element": "Frobnicate", "occurrences": 1, "supported": 0, "unsupported": 1, "unreached": 0}
     assert rows["SpeedAction"]["unsupported"] == 0 and rows["SpeedAction"]["occurrences"] == 4
     assert main(["coverage", str(tmp_path / "s.xosc")]) == 0
     assert "1 of 1 files convert" in capsys.readouterr().out

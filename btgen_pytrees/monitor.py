@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from functools import partial
 from itertools import accumulate
 from typing import Callable, Iterable
 
@@ -390,7 +391,7 @@ def polarities(formula: Formula, positive: bool = True, out: dict[int, bool] | N
     return out
 
 
-def bound_at(monitor: Monitor, anchor: int, k: int, lower: bool) -> float:
+def bound_at(monitor: Monitor, anchor: int, k: int, lower: bool, known: dict | None = None) -> float:
     """The lowest (*lower*) or highest robustness at *anchor* that any continuation of the first *k* + 1
     samples can give (the trace not ended): each atom's later samples at the extreme that pushes the root
     that way (``-inf`` or ``inf`` by the atom's polarity, :func:`polarities`), every window whole, and
@@ -400,9 +401,13 @@ def bound_at(monitor: Monitor, anchor: int, k: int, lower: bool) -> float:
     lies within the known samples is the monitor's own (read, not worked out again); a window's known
     part is one built-in ``min``/``max`` over a slice of its operand's values; only the values still open
     at *k* are worked out, each once.
+
+    *known*: kept across calls on the same monitor (:func:`decided`'s search): an until's settled part as
+    running minima and best values, one slice pass per value whatever the prefixes asked about.
     """
     signs = polarities(monitor.formula)
     memo: dict[tuple[int, int], float] = {}
+    known = {} if known is None else known
 
     def value(node: Node, t: int) -> float:
         if t + node.span <= k and t < len(node.values):
@@ -441,12 +446,17 @@ def bound_at(monitor: Monitor, anchor: int, k: int, lower: bool) -> float:
             done = min(top, _settled(left, k), _settled(right, k))  # [t, done]: the monitor's own values
             v, run = -_INF, _INF
             if done >= t:  # min(ψ(u), min of φ over [t, u)) for the settled u: running minima in C
-                runs = list(accumulate(left.values[t : done + 1], min))
                 first = t + a
+                key = (id(node), t)
+                if key not in known:  # over every value the monitor has: a later prefix reads further
+                    end = min(top, len(left.values) - 1, len(right.values) - 1)
+                    runs = list(accumulate(left.values[t : end + 1], min))
+                    before = runs[first - t - 1 : end - t] if first > t else [_INF, *runs[: end - t]]
+                    known[key] = runs, list(accumulate(map(min, right.values[first : end + 1], before), max))
+                runs, best = known[key]
                 if first <= done:
-                    before = runs[first - t - 1 : done - t] if first > t else [_INF, *runs[: done - t]]
-                    v = max(map(min, right.values[first : done + 1], before))
-                run = runs[-1]
+                    v = best[done - first]
+                run = runs[done - t]
             for u in range(max(t, done + 1), top + 1):
                 if u >= t + a:
                     v = max(v, min(value(right, u), run))
@@ -556,12 +566,13 @@ def decided(monitor: Monitor, anchor: int, known_from: int, last: int, ended: bo
     *ended*: the trace ended at *last* (a formula that reads to the end of the run).
     """
     value = monitor.root.values[anchor]
+    known: dict = {}  # bound_at's settled until parts, shared by the search's steps
 
     def certain(k: int) -> bool:
         if k >= last:
             return value != 0
         recursive, streamed = _costs(monitor, anchor, k)
-        bound = bound_at if recursive <= streamed else bound_streamed
+        bound = partial(bound_at, known=known) if recursive <= streamed else bound_streamed
         return bound(monitor, anchor, k, True) > 0 or bound(monitor, anchor, k, False) < 0
 
     low, high = known_from, last

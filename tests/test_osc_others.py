@@ -180,3 +180,20 @@ def test_coverage_counts_what_a_stopped_conversion_did_not_reach_as_not_reached(
     assert main(["coverage", str(tmp_path), "--format", "markdown"]) == 1
     table = capsys.readouterr().out
     assert "| element | occurrences | supported | not reached |" in table and "| `TeleportAction` | 2 | 0 | 2 |" in table
+
+
+def test_a_named_object_controller_is_the_one_activate_controller_action_names(tmp_path):
+    # ASAM's 1.3 EndOfTrafficJam: <ObjectController name="EgoMovementController"> and an
+    # ActivateControllerAction objectControllerRef="EgoMovementController"
+    controller = '</Vehicle><ObjectController name="Mover"><Controller name="External" controllerType="movement"/></ObjectController><Vehicle name="x">'
+    activate = """<PrivateAction><ControllerAction><ActivateControllerAction objectControllerRef="{ref}" longitudinal="true" lateral="false"/>
+      </ControllerAction></PrivateAction></Private>"""
+    init = BOTH.replace("</Private>", activate.format(ref="Mover"), 1)
+    text = scenario(init).replace("</Vehicle></ScenarioObject>", controller.split("<Vehicle")[0] + "</ScenarioObject>", 1)
+    doc = read_openscenario(write(tmp_path, text))
+    assert doc["system"]["entities"]["Ego"]["controller"] is True  # SUMO's driver model from time 0
+    wrong = scenario(BOTH.replace("</Private>", activate.format(ref="Other"), 1)).replace(
+        "</Vehicle></ScenarioObject>", controller.split("<Vehicle")[0] + "</ScenarioObject>", 1)
+    assert problems(write(tmp_path, wrong)) == [
+        "/OpenSCENARIO/Storyboard/Init/Actions/Private[@entityRef='Ego']/PrivateAction[3]/ControllerAction/ActivateControllerAction: "
+        "objectControllerRef='Other' names no ObjectController of 'Ego'"]

@@ -37,6 +37,7 @@ class ActionWriter:
     def __init__(self, scope: Scope, entities: list[str], variable: Callable[[str, Node], str],
                  controller: Callable[[str], str | None] = lambda name: None):  # fmt: skip
         self.scope, self.entities, self.variable, self.controller = scope, entities, variable, controller
+        self.object_controllers: dict[str, str | None] = {}  # entity -> the name of its ObjectController (1.3)
 
     def entity(self, node: Node, attr: str = "entityRef") -> str:
         name = self.scope.text(node, attr) or ""
@@ -157,6 +158,9 @@ class ActionWriter:
                     params[attr] = s.boolean(inner, attr)
             for attr in ("animation", "lighting"):  # 1.2: no effect on the motion
                 s.text(inner, attr)
+            ref = s.text(inner, "objectControllerRef")  # 1.3: which of the entity's ObjectControllers (one is supported)
+            if ref is not None and (actor not in self.object_controllers or self.object_controllers[actor] != ref):
+                raise XmlProblem(inner, f"objectControllerRef={ref!r} names no ObjectController of {actor!r}")
             name = self.controller(actor)
             if name is not None:  # the sidecar's controller: a plugin's leaf, started here (docs/opendrive.md)
                 return name, {"vehicle": actor}

@@ -192,6 +192,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
             child.use_all()
     entities_node = root.need_child("Entities")
     entities: dict[str, dict[str, Any]] = {}
+    assigned: dict[str, str | None] = {}
     for obj in entities_node.all("ScenarioObject"):
         name = scope.text(obj, "name") or ""
         if not name or not (name[0].isalpha()) or not name.replace("_", "a").isalnum():
@@ -202,6 +203,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
         entities[name]["controller"] = False
         ctrl = obj.child("ObjectController")
         if ctrl is not None:  # assigned, not active until an ActivateControllerAction (7.3.5)
+            assigned[name] = scope.text(ctrl, "name")  # 1.3: the name an ActivateControllerAction may give
             ref = ctrl.only()
             if ref.tag == "CatalogReference":
                 entry, _ = catalogs.resolve("ControllerCatalog", ref, scope)
@@ -215,6 +217,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
             raise XmlProblem(child, "EntitySelection is not supported")
     names = list(entities)
     timeline = Timeline(scope, names, catalogs, options.controllers.get, road=os.path.join(base, road))
+    timeline.actions.object_controllers = assigned
     timeline.declare_variables(root.child("VariableDeclarations"))
     board = root.need_child("Storyboard")
     init = board.need_child("Init")

@@ -295,6 +295,7 @@ def summary(firsts: list[int | None], budget: int) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.arch_cc", description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=2, help="searches per requirement and method (default 2)")
+    parser.add_argument("--first-seed", type=int, default=0, help="the first seed (default 0): seeds FIRST .. FIRST + SEEDS - 1, so a table can be split over processes")
     parser.add_argument("--budget", type=int, default=1500, help="runs per search (default 1,500)")
     parser.add_argument("--methods", default="auto,random", help="comma-separated falsify methods, and psy-taliro (PSY-TaLiRo's dual annealing; the `arch` extra) (default auto,random)")
     parser.add_argument("--requirements", default=",".join(REQUIREMENTS), help="comma-separated (default all)")
@@ -305,13 +306,13 @@ def main(argv: list[str] | None = None) -> int:
     for requirement in args.requirements.split(","):
         for method in args.methods.split(","):
             firsts, began = [], time.perf_counter()
-            for seed in range(args.seeds):
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
                 if method == "psy-taliro":
                     firsts.append(psy_taliro(requirement, seed, args.budget))
                 else:
                     firsts.append(search(requirement, method, seed, args.budget).first_failure)
             s = summary(firsts, args.budget)
-            s.update(requirement=requirement, method=method, firsts=firsts, budget=args.budget,
+            s.update(requirement=requirement, method=method, firsts=firsts, budget=args.budget, first_seed=args.first_seed,
                      seconds=(time.perf_counter() - began) / args.seeds)
             results.append(s)
             mean = "-" if s["mean"] is None else f"{s['mean']:.1f}"

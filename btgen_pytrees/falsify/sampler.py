@@ -56,9 +56,14 @@ HINT = "falsify needs the 'search' extra (optuna, cmaes, scipy, threadpoolctl): 
 
 SIGMA0 = 0.2
 """CMA-ES's first step size, as a fraction of the unit box."""
-STALL = 20
-"""Runs told without a lower objective (plus 2 per continuous parameter) after which the ``gp`` model counts
-as stalled (:attr:`Sampler.stalled`)."""
+STALL = 10
+"""Runs told without a lower objective (plus :data:`STALL_PER` per continuous parameter) after which the ``gp`` model counts
+as stalled (:attr:`Sampler.stalled`). It was 20 plus 2 per parameter (100 runs in 40 parameters): on ARCH-COMP's
+CC5 the model then spent hundreds of runs in a bowl above zero where uniform random needs 59 to fail
+(docs/performance.md, "ARCH-COMP chasing cars")."""
+STALL_PER = 0.5
+STALLED_SHARE = 0.5
+"""The share of a stalled ``gp`` model's runs that are the Sobol sequence's (every other run at batch 1)."""
 GAIN = 0.01
 """The least fall of the lowest objective that counts as progress (objectives are scaled: 1 is a criterion's
 spread over the start), so a model creeping down a bowl whose bottom passes counts as stalled."""
@@ -143,7 +148,7 @@ class Sampler:
         self._since = 0
         self._filling = 0  # space-filling points left in this batch (a stalled model's share)
         self._skip = self._skip_left = 0  # batches the quadratic sits out after a failed check (past 10 parameters)
-        self._turn = 0
+        self._credit = 0.0  # the space-filling share's runs owed (a fraction carried from batch to batch)
         self._asked: list[tuple[str, Any, list[float]]] = []
         self._names = [d.name for d in space.dimensions]
         self._study: Any = None
@@ -226,9 +231,10 @@ class Sampler:
                     self._filling -= 1
                     self._asked.append(("sobol", None, self._sobol_point()))
                 elif self._stage == "gp":
-                    if not self._asked and self.stalled:  # half of each batch (every other run at batch 1) space-filling
-                        self._turn += 1
-                        self._filling = (n - len(points) + self._turn % 2) // 2
+                    if not self._asked:  # the batch's share of space-filling points
+                        self._credit += STALLED_SHARE * (n - len(points)) if self.stalled else 0.0
+                        self._filling = math.floor(self._credit + 1e-9)
+                        self._credit -= self._filling
                         if self._filling > 0:
                             self._filling -= 1
                             self._asked.append(("sobol", None, self._sobol_point()))
@@ -295,12 +301,12 @@ class Sampler:
 
     @property
     def stalled(self) -> bool:
-        """Whether the ``gp`` model has stopped finding lower objectives: :data:`STALL` runs (plus 2 per
+        """Whether the ``gp`` model has stopped finding lower objectives: :data:`STALL` runs (plus half a run per
         parameter) told without a lower one. Then half of each batch - every other run at batch 1 - is the
         Sobol sequence's, until a run beats the lowest: a model that settles above zero (a bowl whose bottom
         passes, far from a small failing region) would never look elsewhere, where uniform random
         sampling finds the region at its rate; with the share it finds it at half that rate at worst."""
-        return self._since >= STALL + 2 * len(self.space.continuous)
+        return self._since >= STALL + STALL_PER * len(self.space.continuous)
 
     def rescore(self, values: Sequence[float | None]) -> None:
         """Replace the objectives told so far (e.g. once the criteria's scales are known); the next

@@ -3,7 +3,7 @@
 Issue 33's time goal is the whole ALKS corpus in under 5 minutes with ``--jobs 2``. This measures
 what that corpus costs, in three parts:
 
-1. **the commands, wall time**: ``run`` of the 15 concrete scenarios with ``--jobs N``, and
+1. **the commands, wall and CPU time** (the command's processes and workers): ``run`` of the 15 concrete scenarios with ``--jobs N``, and
    ``validate`` of the 15 distribution files with ``--jobs N`` (it converts and validates every
    variation; the two files over the 10,000-variation limit are refused with exit 2, so the
    command's exit code is 2);
@@ -26,6 +26,7 @@ import gc
 import glob
 import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -49,10 +50,13 @@ CORPUS = os.environ.get("BTGEN_OSC_CORPUS", "/work/shared/corpus/openscenario/al
 PARTS = ("render", "validate", "start+close", "sumo", "adapter", "tree")
 
 
-def _command(args: Sequence[str]) -> tuple[float, int, str]:
-    t0 = time.perf_counter()
+def _command(args: Sequence[str]) -> tuple[float, float, int, str]:
+    """Wall seconds, CPU seconds of the command's processes (its workers included), exit code, output."""
+    t0, c0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
     done = subprocess.run([sys.executable, "-m", "btgen_pytrees", *args], capture_output=True, text=True, check=False)
-    return time.perf_counter() - t0, done.returncode, done.stdout + done.stderr
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
+    return time.perf_counter() - t0, cpu, done.returncode, done.stdout + done.stderr
 
 
 def sample_file(path: str, n: int, registry: Any) -> dict[str, Any]:
@@ -114,9 +118,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.skip_commands:
         for name, cmd in (("run 15 concrete scenarios", ["run", *concrete, "--jobs", str(args.jobs)]),
                           ("validate 15 distributions", ["validate", *distributions, "--jobs", str(args.jobs), "--quiet"])):  # fmt: skip
-            wall, code, _ = _command(cmd)
-            out["commands"][name] = {"wall s": wall, "exit": code}
-            print(f"{name:32s} {wall:7.1f} s wall   exit {code}")
+            wall, cpu, code, _ = _command(cmd)
+            out["commands"][name] = {"wall s": wall, "cpu s": cpu, "exit": code}
+            print(f"{name:32s} {wall:7.1f} s wall {cpu:7.1f} s CPU   exit {code}", flush=True)
         print()
     registry = default_registry()
     header = f"{'distribution':44s} {'variations':>10s} {'ticks':>6s} {'per var ms':>10s} " + " ".join(f"{p:>11s}" for p in PARTS)
@@ -135,9 +139,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"\nprojected, {label}: {runs:,} variations, {cpu:,.0f} s CPU = {cpu / args.jobs / 60:,.1f} min on {args.jobs} "
               f"ideal workers (goal {GOAL_SECONDS / 60:.0f} min); SUMO's steps alone: {floor / args.jobs / 60:,.1f} min")  # fmt: skip
     for path in args.full:
-        wall, code, text = _command(["run", path, "--jobs", str(args.jobs)])
-        out["full"][os.path.basename(path)] = {"wall s": wall, "exit": code}
-        print(f"run {os.path.basename(path)} --jobs {args.jobs}: {wall:.1f} s wall, exit {code}")
+        wall, cpu, code, text = _command(["run", path, "--jobs", str(args.jobs)])
+        out["full"][os.path.basename(path)] = {"wall s": wall, "cpu s": cpu, "exit": code}
+        print(f"run {os.path.basename(path)} --jobs {args.jobs}: {wall:.1f} s wall, {cpu:.1f} s CPU, exit {code}", flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     return 0

@@ -104,6 +104,27 @@ def test_svg_names_everything_and_is_deterministic(fig1_path: str) -> None:
     assert "FAIL" in texts and "waits for any(B2, B3)" in texts and "failed: speed <= 30" in texts
 
 
+def test_the_svg_does_not_depend_on_the_layout_solvers_last_bits(fig1_path: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # constrained layout (kiwisolver) was seen to place an axes differently in a float's last bits from one
+    # process to the next, and matplotlib names each SVG clip rectangle by a hash of its exact bounds
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    case_ = fig1_failing(fig1_path)
+    report = run(case_)
+    steady = plot_bytes(report, case_, "svg")
+    solve = ConstrainedLayoutEngine.execute
+
+    def jittered(self: Any, figure: Any) -> Any:
+        done = solve(self, figure)
+        for axes in figure.axes:
+            x, y, w, h = axes.get_position().bounds
+            axes.set_position([x + 3e-13, y - 2e-13, w, h + 1e-13], which="both")
+        return done
+
+    monkeypatch.setattr(ConstrainedLayoutEngine, "execute", jittered)
+    assert plot_bytes(report, case_, "svg") == steady
+
+
 def test_png_and_html(fig1_path: str) -> None:
     case_ = btgen_pytrees.load(fig1_path)
     report = run(case_)

@@ -535,6 +535,7 @@ def figure_bytes(figure: Figure, fmt: str, title: str, text: str = "") -> bytes:
 
     buffer = io.BytesIO()
     with matplotlib.rc_context({"svg.hashsalt": "btgen_pytrees", "svg.fonttype": "none", "text.parse_math": False}):
+        freeze_layout(figure)
         if fmt == "png":
             figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
         else:
@@ -552,6 +553,23 @@ def figure_bytes(figure: Figure, fmt: str, title: str, text: str = "") -> bytes:
         f"{pre}{svg[svg.index('<svg'):]}\n</body>\n</html>\n"
     )
     return page.encode("utf-8")
+
+
+def freeze_layout(figure: Figure) -> None:
+    """Lay *figure* out once and fix each axes' place, rounded to 1e-6 of the figure.
+
+    Constrained layout (kiwisolver) can place an axes differently in the last bits of a float
+    from one process to the next, and matplotlib's SVG names each clip rectangle by a hash of
+    its exact bounds: the same figure would be other bytes now and then. Rounded places are
+    the same in every process.
+    """
+    engine = figure.get_layout_engine()
+    if engine is None:
+        return
+    engine.execute(figure)
+    figure.set_layout_engine("none")
+    for axes in figure.axes:
+        axes.set_position([round(v, 6) for v in axes.get_position().bounds])
 
 
 def plot_run(report: Report, case: TestCase, path: str, signals: Sequence[str] | None = None) -> None:

@@ -212,6 +212,15 @@ def _shown(path: Path, rootdir: Path) -> str:
         return str(path)
 
 
+def _source_shown(error: InvalidTestCase, path: Path, shown: str, rootdir: Path) -> str:
+    """The file *error*'s pointers are in, as the CLI names it: *shown* (the collected file), or the other
+    file the problem is in - the scenario an OpenSCENARIO distribution names, whose ``/OpenSCENARIO/...``
+    path is no place in the distribution."""
+    if error.source in ("<dict>", str(path)) or not os.path.isfile(error.source) or os.path.samefile(error.source, path):
+        return shown
+    return _shown(Path(os.path.abspath(error.source)), rootdir)
+
+
 def invalid_text(error: InvalidTestCase, shown: str) -> str:
     """The CLI's lines for *error*: ``FILE: /json/pointer: message``, at most :data:`MAX_PROBLEMS`."""
     problems = error.problems
@@ -265,7 +274,7 @@ class CaseFile(pytest.File):
             case = validate(data, str(self.path), conf.registry, conf.system)
             check_work(case, conf.max_work)
         except InvalidTestCase as error:
-            raise self.CollectError(invalid_text(error, shown)) from None
+            raise self.CollectError(invalid_text(error, _source_shown(error, self.path, shown, conf.rootdir))) from None
         yield _item(self, _item_name(case.name, self.path.stem), case=case, sumo=sumo)
 
 

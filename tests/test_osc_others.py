@@ -197,3 +197,23 @@ def test_a_named_object_controller_is_the_one_activate_controller_action_names(t
     assert problems(write(tmp_path, wrong)) == [
         "/OpenSCENARIO/Storyboard/Init/Actions/Private[@entityRef='Ego']/PrivateAction[3]/ControllerAction/ActivateControllerAction: "
         "objectControllerRef='Other' names no ObjectController of 'Ego'"]
+
+
+def test_the_pytest_plugin_names_the_scenario_a_distributions_problem_is_in(tmp_path):
+    # ASAM's SlowPrecedingVehicleDeterministicParameterSet.xosc: the problem is in the scenario it names;
+    # `/OpenSCENARIO/Storyboard/...` is no place in the distribution (the CLI names the scenario too)
+    import subprocess
+    import sys
+    weather = """<GlobalAction><EnvironmentAction><Environment name="sunny"><TimeOfDay animation="false" dateTime="2024-01-01T12:00:00"/>
+      </Environment></EnvironmentAction></GlobalAction>"""
+    write(tmp_path, scenario(weather + BOTH).replace("<ParameterDeclarations/>", '<ParameterDeclarations><ParameterDeclaration name="V" parameterType="double" value="1"/></ParameterDeclarations>'))
+    (tmp_path / "d.xosc").write_text("""<?xml version="1.0" encoding="utf-8"?><OpenSCENARIO>
+  <FileHeader revMajor="1" revMinor="3" date="2024-01-01T00:00:00" description="d" author="me"/>
+  <ParameterValueDistribution><ScenarioFile filepath="s.xosc"/><Deterministic><DeterministicSingleParameterDistribution parameterName="V">
+    <DistributionSet><Element value="1"/><Element value="2"/></DistributionSet></DeterministicSingleParameterDistribution></Deterministic>
+  </ParameterValueDistribution></OpenSCENARIO>""")
+    done = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:randomly", "-p", "no:cacheprovider",
+                           "--btgen-files=d.xosc"], cwd=tmp_path, capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert done.returncode != 0
+    where = "/OpenSCENARIO/Storyboard/Init/Actions/GlobalAction/EnvironmentAction: EnvironmentAction is not supported"
+    assert f"s.xosc: {where}" in done.stdout and f"d.xosc: {where}" not in done.stdout, done.stdout

@@ -13,9 +13,10 @@ Two questions of issue 32, each answered by ratios measured in one run:
   the smallest (1.0 = linear), for both, and the modified chain's run time against the plain one's.
 
 Each ratio is the median of ``--rounds`` rounds; a round measures both variants back to back (the
-order alternating from round to round), each after a full ``gc.collect()`` with the collector on, in
-CPU time (``time.process_time``: the machine may be shared), so both see the same machine and a
-disturbance shifts one round, not the figure.
+order alternating from round to round), each with its own input alone in memory (the other's dict
+is not held while it loads) after a full ``gc.collect()``, with the collector on, in CPU time
+(``time.process_time``: the machine may be shared), so both see the same machine and a disturbance
+shifts one round, not the figure.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import statistics
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any, Callable
 
@@ -61,17 +63,23 @@ def chain(n: int, modified: bool) -> dict[str, Any]:
     return {"name": "chain", "signals": {"x": 0}, "tick": 0.1, "timeout": n * 0.1 + 10, "execute": execute}
 
 
-def _cpu(work: Callable[[], Any]) -> float:
-    """CPU seconds of one call of *work*, after a full collection (the collector stays on: users run with it)."""
+Work = tuple[Callable[[], Any], Callable[[Any], Any]]
+"""What one measurement does: its input made (not timed), then the work on it (timed)."""
+
+
+def _cpu(work: Work) -> float:
+    """CPU seconds of one call of *work* on its input, made first and followed by a full collection, so that the heap
+    holds what this measurement needs and nothing of another's (the collector stays on: users run with it)."""
+    made = work[0]()
     gc.collect()
     start = time.process_time()
-    result = work()
+    result = work[1](made)
     spent = time.process_time() - start
-    del result  # (freed before the next measurement's collection)
+    del result, made  # (freed before the next measurement)
     return spent
 
 
-def _rounds(works: dict[str, Callable[[], Any]], rounds: int) -> dict[str, Any]:
+def _rounds(works: dict[str, Work], rounds: int) -> dict[str, Any]:
     """Each variant's CPU seconds per round, measured back to back in an order alternating by round, and the
     median of the per-round ratios modified / plain."""
     seconds: dict[str, list[float]] = {name: [] for name in works}
@@ -83,21 +91,20 @@ def _rounds(works: dict[str, Callable[[], Any]], rounds: int) -> dict[str, Any]:
             "ratios": ratios}  # fmt: skip
 
 
-def _build(source: Any) -> Callable[[], Any]:
-    def work() -> Any:
-        return btgen_pytrees.generate(btgen_pytrees.load(source))
-
-    return work
+def _build(source: Callable[[], Any]) -> Work:
+    """Load + generate of the case *source* makes: a path (the JSON file) or the dict itself."""
+    return source, lambda made: btgen_pytrees.generate(btgen_pytrees.load(made))
 
 
-def _run(case: Any) -> Callable[[], Any]:
-    def work() -> Any:
-        report = run(case, record=False)
-        if report.verdict != "pass":
-            raise AssertionError(f"the benchmark chain did not pass: {report.verdict} {report.message}")
-        return report
+def _checked_run(case: Any) -> Any:
+    report = run(case, record=False)
+    if report.verdict != "pass":
+        raise AssertionError(f"the benchmark chain did not pass: {report.verdict} {report.message}")
+    return report
 
-    return work
+
+def _run(case: Any) -> Work:
+    return (lambda: case), _checked_run
 
 
 def measure(sizes: tuple[int, ...] = (10_000, 100_000), rounds: int = 7, runs: bool = True,
@@ -107,15 +114,13 @@ def measure(sizes: tuple[int, ...] = (10_000, 100_000), rounds: int = 7, runs: b
     out: dict[str, Any] = {"sizes": {}, "modifiers": list(MODIFIERS), "rounds": rounds}
     with tempfile.TemporaryDirectory(prefix="btgen-control-") as tmp:
         for n in sizes:
-            data = {name: chain(n, name == "modified") for name in VARIANTS}
-            paths = {}
-            for name, doc in data.items():
-                paths[name] = Path(tmp) / f"{name}-{n}.json"
-                paths[name].write_text(json.dumps(doc), encoding="utf-8")
-            figures: dict[str, Any] = {"build": _rounds({name: _build(str(p)) for name, p in paths.items()}, rounds)}
-            if dicts:
-                figures["build_dict"] = _rounds({name: _build(doc) for name, doc in data.items()}, rounds)
-            del data
+            paths = {name: Path(tmp) / f"{name}-{n}.json" for name in VARIANTS}
+            for name, path in paths.items():
+                path.write_text(json.dumps(chain(n, name == "modified")), encoding="utf-8")
+            figures: dict[str, Any] = {"build": _rounds({name: _build(partial(str, p)) for name, p in paths.items()}, rounds)}
+            if dicts:  # each dict made before its measurement, as a caller holds the one it loads
+                figures["build_dict"] = _rounds({name: _build(partial(chain, n, name == "modified")) for name in VARIANTS},
+                                                rounds)  # fmt: skip
             if runs:
                 cases = {name: btgen_pytrees.load(str(p)) for name, p in paths.items()}
                 ticks = {name: run(case, record=False).ticks for name, case in cases.items()}

@@ -294,6 +294,18 @@ def test_entries_with_the_same_keys_share_one_control_and_a_near_copy_is_checked
         assert any(p == pointer and words in m for p, m in found), found
 
 
+def test_a_problem_of_shared_keys_is_named_at_every_entry_that_holds_them() -> None:
+    same = {"when": "spede > 1", "edge": "rising"}
+    data = case(entry("A"), {**entry("B"), **same}, {**entry("C"), **same}, {**entry("D"), "edge": "any"},
+                {**entry("E"), "edge": "any"}, signals={"speed": 0})  # fmt: skip
+    with pytest.raises(InvalidTestCase) as info:
+        load(data)
+    assert [(p.pointer, p.message) for p in info.value.problems] == [
+        ("/execute/1/when", "unknown signal 'spede' in 'spede > 1' (did you mean 'speed'?)"),
+        ("/execute/2/when", "unknown signal 'spede' in 'spede > 1' (did you mean 'speed'?)"),
+        ("/execute/3/edge", "an edge needs a 'when' to watch"), ("/execute/4/edge", "an edge needs a 'when' to watch")]
+
+
 def test_repeat_in_a_race_is_refused_and_the_cli_exits_2(tmp_path) -> None:  # type: ignore[no-untyped-def]
     data = case({**entry("A"), "race": "r", "repeat": 2}, {**entry("B"), "race": "r"}, stop=[{"when": "B.strted"}])
     path = tmp_path / "bad.json"

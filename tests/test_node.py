@@ -30,24 +30,27 @@ class _Ours(Node):
         return Status.SUCCESS
 
 
-LAZY = {"_iterator": "iterator", "_blackboards": "blackboards"}  # made when first read, behind properties
+LAZY = {"_id": "id", "_logger": "logger", "_iterator": "iterator", "_blackboards": "blackboards"}
+"""Attributes made when first read, behind properties."""
 
 
 def test_a_node_has_what_a_stock_behaviour_has_in_the_same_order() -> None:
     stock, ours = _Stock("a name"), _Ours("a name")
     assert [LAZY.get(k, k) for k in vars(ours)] == list(vars(stock))
-    assert ours._iterator is None and ours._blackboards is None
+    assert ours._iterator is None and ours._blackboards is None and ours._id is None and ours._logger is None
     for key, expected in vars(stock).items():
         got = getattr(ours, key)
         assert type(got) is type(expected), key
         if key == "id":
             assert got != expected and got.version == 4 and got.variant == uuid.RFC_4122
+            assert ours.id is got  # made once
         elif key == "iterator":
             assert isinstance(got, types.GeneratorType) and got.gi_code is Node.tick.__code__  # its own tick (below)
             assert expected.gi_code is py_trees.behaviour.Behaviour.tick.__code__
             assert ours.iterator is got  # made once
         elif key == "logger":
             assert vars(got) == vars(expected)
+            assert ours.logger is got  # made once
         elif key == "qualified_name":
             assert got == "_Ours/a name" and expected == "_Stock/a name"
         else:

@@ -185,10 +185,10 @@ class Sequence(py_trees.composites.Sequence):
     """
 
     def append_child(self, child: py_trees.behaviour.Behaviour) -> None:
-        """``add_child`` without its return value, the child's ``id``: a node of the control-flow keys
-        (:class:`~btgen_pytrees.leaves.control.Lean`) makes its UUID when the id is first read, which
-        ``add_child`` would do for nothing where the caller drops it (the generator's chains, one per entry
-        with control keys). The same checks, in the same order, and the same effect."""
+        """``add_child`` without its return value, the child's ``id``: the package's nodes
+        (:class:`~btgen_pytrees.leaves.node.Node`) make their UUID when the id is first read, which
+        ``add_child`` would do for nothing where the caller drops it (the generator's chains: one per
+        entry). The same checks, in the same order, and the same effect."""
         if not isinstance(child, py_trees.behaviour.Behaviour):
             raise TypeError(f"children must be behaviours, but you passed in {type(child)}")
         self.children.append(child)

@@ -30,67 +30,18 @@ import typing
 
 import py_trees
 from py_trees.blackboard import Blackboard
-from py_trees.common import BlackBoxLevel, Status
+from py_trees.common import Status
 
 from ..contracts.environment import Environment
 from ..expressions import Expression, ExpressionError
 from ..model import Control, Entry, StopCondition, state_signal
 from .composites import ends_with_itself
-from .node import NODE_TICK, Node, new_id
+from .node import NODE_TICK, Node
 from .simulated import reached
 
-__all__ = ["Condition", "Gate", "VirtualTimeout", "Attempts", "Repetitions", "Controlled", "StopGuard", "controlled", "Lean"]
+__all__ = ["Condition", "Gate", "VirtualTimeout", "Attempts", "Repetitions", "Controlled", "StopGuard", "controlled"]
 
 _SUCCESS, _FAILURE, _RUNNING, _INVALID = Status.SUCCESS, Status.FAILURE, Status.RUNNING, Status.INVALID
-
-
-class Lean(Node):
-    """:class:`~btgen_pytrees.leaves.node.Node` whose ``id`` and ``logger`` are made when first read.
-
-    A case may have tens of thousands of entries with control keys, each one to four of these nodes more than
-    its leaf; a node's UUID and py_trees ``Logger`` are two objects of the four that the garbage collector walks
-    at every full collection while the tree is built (they doubled what the control keys cost a 100,000-entry
-    case: docs/performance.md#control-flow). py_trees reads a node's ``id`` when it adds it to a composite and
-    in its views and visitors, and its ``logger`` to print a debug line: each is made then, the same as
-    ``Node`` makes it at once.
-    """
-
-    def __init__(self, name: str):
-        if not isinstance(name, str):
-            raise TypeError(f"a behaviour name should be a string, but you passed in {type(name)}")
-        self._id: typing.Any = None
-        self.name: str = name
-        self._blackboards = None
-        self.qualified_name = f"{self.__class__.__qualname__}/{name}"
-        self.status = _INVALID
-        self._iterator = None
-        self.parent = None
-        self.children: list[py_trees.behaviour.Behaviour] = []
-        self._logger: py_trees.logging.Logger | None = None
-        self.feedback_message = ""
-        self.blackbox_level = BlackBoxLevel.NOT_A_BLACKBOX
-
-    @property  # type: ignore[override]
-    def id(self) -> typing.Any:
-        found = self._id
-        if found is None:
-            found = self._id = new_id()
-        return found
-
-    @id.setter
-    def id(self, value: typing.Any) -> None:
-        self._id = value
-
-    @property  # type: ignore[override]
-    def logger(self) -> py_trees.logging.Logger:
-        found = self._logger
-        if found is None:
-            found = self._logger = py_trees.logging.Logger(self.name)
-        return found
-
-    @logger.setter
-    def logger(self, value: py_trees.logging.Logger) -> None:
-        self._logger = value
 
 
 def _tick(node: py_trees.behaviour.Behaviour) -> typing.Iterator[py_trees.behaviour.Behaviour]:
@@ -164,7 +115,7 @@ class Condition:
         return ", ".join(parts)
 
 
-class Gate(py_trees.decorators.Decorator, Lean):
+class Gate(py_trees.decorators.Decorator, Node):
     """The trigger before an entry's action: its child is not ticked until the :class:`Condition` is due (RUNNING
     until then), then on that very tick and on every one after, passing the child's status through - as
     BehaviorTree.CPP's ``Delay`` holds its child, with the ``when`` and ``edge`` before the delay. A new start
@@ -183,7 +134,7 @@ class Gate(py_trees.decorators.Decorator, Lean):
         self.condition = condition
         self.env = env
         self.open = False  # the condition was due: the child runs
-        self.client = env.attach_shared(self, [env.signal_key(n) for n in condition.names])
+        self.client = env.attach_signals(self, condition.names)
 
     def initialise(self) -> None:
         self.condition.reset()
@@ -217,7 +168,7 @@ class Gate(py_trees.decorators.Decorator, Lean):
         yield self
 
 
-class VirtualTimeout(py_trees.decorators.Timeout, Lean):
+class VirtualTimeout(py_trees.decorators.Timeout, Node):
     """py_trees' ``Timeout`` on the run's clock: an attempt that has not finished ``duration`` seconds after it
     started fails on the first tick with ``now >= start + duration`` (the child is ticked first: one that finishes
     on that tick keeps its status)."""
@@ -244,7 +195,7 @@ class VirtualTimeout(py_trees.decorators.Timeout, Lean):
         return status
 
 
-class Attempts(py_trees.decorators.Retry, Lean):
+class Attempts(py_trees.decorators.Retry, Node):
     """py_trees' ``Retry``: a failed attempt starts again, up to ``num_failures`` tries in all - on the tick it
     failed (the child is ticked again in the same tick)."""
 
@@ -274,7 +225,7 @@ class Attempts(py_trees.decorators.Retry, Lean):
         yield self
 
 
-class Repetitions(py_trees.decorators.Repeat, Lean):
+class Repetitions(py_trees.decorators.Repeat, Node):
     """py_trees' ``Repeat``: the entry runs ``num_success`` times in a row, a new repetition starting on the tick
     the one before it succeeded (each waits for its ``when``/``delay`` again); the first failure fails it."""
 
@@ -323,7 +274,7 @@ def _message(node: py_trees.behaviour.Behaviour) -> str:
             return found
 
 
-class Controlled(py_trees.decorators.Decorator, Lean):
+class Controlled(py_trees.decorators.Decorator, Node):
     """An entry with control keys: its status is the entry's, and it is what the run's report follows.
 
     It notes when the action first started (:attr:`started`; the entry waits for its ``when`` before),
@@ -510,7 +461,7 @@ class Controlled(py_trees.decorators.Decorator, Lean):
         return None
 
 
-class StopGuard(py_trees.decorators.Decorator, Lean):
+class StopGuard(py_trees.decorators.Decorator, Node):
     """The case's ``stop``: around the execute subtree, checked at the start of every tick, before any entry, and
     again after the entries have ticked (a signal an entry wrote on this tick ends the run on this tick).
 

@@ -10,6 +10,14 @@ to the same values as ``Behaviour.__init__``, with these differences:
   ``uuid.UUID(int=...)``. What py_trees reads an id for - telling nodes apart (``add_child`` returns
   it, ``remove_child_by_id``, ``BehaviourTree.prune_subtree``, the display and snapshot visitors) -
   needs it unique, not unpredictable; the host's :mod:`random` state is never touched;
+* its ``id`` and its ``logger`` (py_trees' ``Logger``, read to print a debug line) are made when first
+  read, behind properties over ``_id`` and ``_logger``: the generator builds its chains with
+  :meth:`~btgen_pytrees.leaves.composites.Sequence.append_child`, which does not read the id
+  ``add_child`` returns, and nothing of a run reads either unless py_trees' debug logging is on. A
+  UUID and a ``Logger`` are two objects in four of a leaf, which the garbage collector walks at every
+  full collection while a large tree is built (docs/performance.md#control-flow: the nodes of the
+  control-flow keys made the collector run during the walk of a 100,000-entry chain, and scan every
+  node made so far, three times);
 * ``iterator``, the ``tick()`` generator ``Behaviour.__init__`` makes and ``stop()`` makes anew,
   and ``blackboards``, the list of the node's blackboard clients, are made when first read: py_trees
   never reads ``iterator`` (it ticks through fresh ``tick()`` calls), and reads ``blackboards`` only
@@ -78,7 +86,7 @@ class Node(py_trees.behaviour.Behaviour):
     def __init__(self, name: str):
         if not isinstance(name, str):
             raise TypeError(f"a behaviour name should be a string, but you passed in {type(name)}")
-        self.id = new_id()
+        self._id: UUID | None = None
         self.name: str = name
         self._blackboards: list[py_trees.blackboard.Client] | None = None
         self.qualified_name = f"{self.__class__.__qualname__}/{name}"
@@ -86,7 +94,7 @@ class Node(py_trees.behaviour.Behaviour):
         self._iterator: Iterator[py_trees.behaviour.Behaviour] | None = None
         self.parent: py_trees.behaviour.Behaviour | None = None
         self.children: list[py_trees.behaviour.Behaviour] = []
-        self.logger = py_trees.logging.Logger(name)
+        self._logger: py_trees.logging.Logger | None = None
         self.feedback_message = ""
         self.blackbox_level = BlackBoxLevel.NOT_A_BLACKBOX
 
@@ -123,6 +131,30 @@ class Node(py_trees.behaviour.Behaviour):
         self.terminate(new_status)
         self.status = new_status
         self._iterator = None
+
+    @property  # type: ignore[override]
+    def id(self) -> UUID:
+        """The node's unique id (:func:`new_id`, made when first read)."""
+        found = self._id
+        if found is None:
+            found = self._id = new_id()
+        return found
+
+    @id.setter
+    def id(self, value: UUID) -> None:
+        self._id = value
+
+    @property  # type: ignore[override]
+    def logger(self) -> py_trees.logging.Logger:
+        """py_trees' ``Logger`` named after the node, as ``Behaviour.__init__`` makes it (made when first read)."""
+        found = self._logger
+        if found is None:
+            found = self._logger = py_trees.logging.Logger(self.name)
+        return found
+
+    @logger.setter
+    def logger(self, value: py_trees.logging.Logger) -> None:
+        self._logger = value
 
     @property  # type: ignore[override]
     def blackboards(self) -> list[py_trees.blackboard.Client]:

@@ -149,6 +149,25 @@ def _state_of(name: str, ids: set[str]) -> str | None:
     return entry if dot and state in STATES and entry in ids else None
 
 
+def _own_problems(checker: Checker, control: Control, path: tuple[PathPart, ...], ids: set[str],
+                  by_text: dict[str, list[tuple[str, str]]]) -> list[tuple[str, str, str]]:  # fmt: skip
+    """The problems of *control*'s ``when`` and ``edge`` (the same for every entry that holds it), as ``(key, message,
+    cause)``; a ``when``'s text is checked once (*by_text*), at the first entry's *path*."""
+    found: list[tuple[str, str, str]] = []
+    if control.when is not None:
+        source = control.when.source
+        words = by_text.get(source)
+        if words is None:
+            before = len(checker.problems)
+            condition(checker, source, (*path, "when"), ids)
+            words = by_text[source] = [(p.message, p.cause) for p in checker.problems[before:]]
+            del checker.problems[before:]
+        found.extend(("when", message, cause) for message, cause in words)
+    elif control.edge != "none":
+        found.append(("edge", "an edge needs a 'when' to watch", "expression"))
+    return found
+
+
 def finish_control(checker: Checker, entries: list[Entry], data: Mapping[str, Any]) -> tuple[list[Entry], tuple[StopCondition, ...]]:
     """The checks over all entries (races), the top-level ``stop``, and the entries whose states are read marked
     ``watched``. Returns the entries (the same list when no entry has a control key) and the stop conditions."""
@@ -157,31 +176,28 @@ def finish_control(checker: Checker, entries: list[Entry], data: Mapping[str, An
     if not controlled and not raw_stop:
         return entries, ()
     ids = {e.id for e in entries}
-    checked: dict[str, list[tuple[str, str]]] = {}  # a when's text -> its problems (message, cause): each text once
+    by_text: dict[str, list[tuple[str, str]]] = {}  # a when's text -> its problems (message, cause): each text once
+    by_control: dict[int, list[tuple[str, str, str]]] = {}  # id of a Control -> its problems (key, message, cause)
+    distinct: list[Control] = []  # each Control once (the loader shares one between entries with the same keys)
     for e in controlled:
         control = e.control
-        if control.when is not None:  # type: ignore[union-attr]
-            source = control.when.source  # type: ignore[union-attr]
-            found = checked.get(source)
-            if found is None:
-                before = len(checker.problems)
-                condition(checker, source, (*e.path, "when"), ids)
-                found = checked[source] = [(p.message, p.cause) for p in checker.problems[before:]]
-                del checker.problems[before:]
-            for message, cause in found:
-                checker.add((*e.path, "when"), message, cause)
-        elif control.edge != "none":  # type: ignore[union-attr]
-            checker.add((*e.path, "edge"), "an edge needs a 'when' to watch", "expression")
-        seen: set[str] = set()
-        for k, target in enumerate(control.stops):  # type: ignore[union-attr]
-            where = (*e.path, "stops", k)
-            if target == e.id:
-                checker.add(where, f"{target!r} cannot stop itself", "graph")
-            elif target in seen:
-                checker.add(where, f"{target!r} is listed twice", "graph")
-            elif target not in ids:
-                checker.add(where, f"unknown id {target!r}{suggest(target, ids)}", "graph")
-            seen.add(target)
+        found = by_control.get(id(control))  # type: ignore[arg-type]
+        if found is None:
+            distinct.append(control)  # type: ignore[arg-type]
+            found = by_control[id(control)] = _own_problems(checker, control, e.path, ids, by_text)  # type: ignore[arg-type]
+        for key, message, cause in found:
+            checker.add((*e.path, key), message, cause)
+        if control.stops:  # type: ignore[union-attr]
+            seen: set[str] = set()
+            for k, target in enumerate(control.stops):  # type: ignore[union-attr]
+                where = (*e.path, "stops", k)
+                if target == e.id:
+                    checker.add(where, f"{target!r} cannot stop itself", "graph")
+                elif target in seen:
+                    checker.add(where, f"{target!r} is listed twice", "graph")
+                elif target not in ids:
+                    checker.add(where, f"unknown id {target!r}{suggest(target, ids)}", "graph")
+                seen.add(target)
     stop = []
     for k, item in enumerate(raw_stop):
         when = condition(checker, item["when"], ("stop", k, "when"), ids)
@@ -199,10 +215,10 @@ def finish_control(checker: Checker, entries: list[Entry], data: Mapping[str, An
             if e.control.repeat > 1:  # type: ignore[union-attr]
                 checker.add((*e.path, "repeat"), f"{e.id!r} runs in race {name!r}: its success ends the race, so it "
                             "cannot repeat (use 'attempts' to retry a failure)", "graph")  # fmt: skip
-    watched = {_state_of(name, ids) for e in controlled if e.control.when is not None  # type: ignore[union-attr]
-               for name in e.control.when.names} | {_state_of(name, ids) for s in stop for name in s.when.names}  # type: ignore[union-attr]
+    watched = {_state_of(name, ids) for c in distinct if c.when is not None for name in c.when.names} | {
+        _state_of(name, ids) for s in stop for name in s.when.names}  # fmt: skip
     watched.discard(None)
-    stopped = {target for e in controlled for target in e.control.stops}  # type: ignore[union-attr]
+    stopped = {target for c in distinct for target in c.stops}
     if watched or stopped:  # they need the node that publishes states and honours stop requests
         entries = [replace(e, control=replace(e.control or Control(), watched=e.id in watched or (e.control is not None and e.control.watched)))
                    if e.id in watched or e.id in stopped else e for e in entries]  # fmt: skip

@@ -494,6 +494,26 @@ def test_a_distribution_is_a_sweep_for_validate_and_expand(tmp_path, capsys):
 
 
 @needs_sumo
+def test_set_chooses_one_variation_of_a_distribution(tmp_path, capsys):
+    import json
+
+    from btgen_pytrees.cli import main
+    write(tmp_path, scenario(BRAKE, PARAMS, STOP))
+    path = write(tmp_path, distribution("""<Deterministic><DeterministicSingleParameterDistribution parameterName="Decel">
+      <DistributionSet><Element value="3"/><Element value="5"/></DistributionSet>
+    </DeterministicSingleParameterDistribution></Deterministic>"""), "v.xosc")
+    out = tmp_path / "one"
+    assert main(["expand", path, "--set", "Decel=4.5", "--out-dir", str(out)]) == 0
+    (written,) = out.glob("*.json")
+    doc = json.loads(written.read_text())
+    assert doc["name"] == "v[Decel=4.5]"
+    assert next(e for e in doc["execute"] if e["id"] == "BrakeAction")["params"]["rate"] == 4.5  # the scenario converted with it
+    assert main(["expand", path, "--set", "Decell=4", "--out-dir", str(out)]) == 2
+    assert "unknown parameter 'Decell' (did you mean 'Decel'?)" in capsys.readouterr().err
+    assert main(["expand", path, "--set", "Decel=-1", "--out-dir", str(tmp_path / "two")]) == 2  # breaks its constraint
+
+
+@needs_sumo
 def test_examples_run_on_sumo_to_their_verdicts(tmp_path, capsys):
     from btgen_pytrees.cli import main
     pytest.importorskip("libsumo")

@@ -39,6 +39,7 @@ from ..leaves import Registry
 from ..load.read import load_json
 from ..text import closest
 from ..load.sweep import load_sweep
+from ..load.template import rendered
 from ..load.values import value_problems
 from ..load.variations import Value, format_value, label
 
@@ -178,8 +179,20 @@ def choose(data: Any, source: str, given: Mapping[str, Given], *, registry: Regi
         ParameterError: a given name is not declared or its value has the wrong type
         InvalidTestCase: the case (with those values) is not valid
     """
+    front = rendered(data)
+    if front is not None:  # an OpenSCENARIO distribution: its varied parameters, the scenario converted with them
+        defaults: dict[str, Value] = dict(data.defaults)
+        problems = check_given(given, defaults)
+        if problems:
+            raise ParameterError(problems)
+        values = {**defaults, **{name: item.value for name, item in given.items()}}
+        document = front(values)
+        load_sweep(document, registry=registry, source_name=source, system=system, check_all=False)  # valid, or raises
+        document["name"] = variation_name(os.path.splitext(os.path.basename(source))[0],
+                                          label(tuple((k, v) for k, v in values.items() if k in given)))  # fmt: skip
+        return Chosen(values, {name: item.value for name, item in given.items()}, document)
     declared = data.get("parameters") if isinstance(data, dict) else None
-    defaults: dict[str, Value] = dict(declared) if isinstance(declared, dict) else {}
+    defaults = dict(declared) if isinstance(declared, dict) else {}
     problems = check_given(given, defaults)
     if problems:
         raise ParameterError(problems)

@@ -115,3 +115,17 @@ def test_a_small_run_taken_apart(capsys) -> None:  # type: ignore[no-untyped-def
     assert result["steady_tick_us"] > 0
     assert small_run.main(["--rounds", "1", "--ticks", "20"]) == 0
     assert "steady tick" in capsys.readouterr().out
+
+
+@pytest.mark.skipif(not pathlib.Path(__import__("os").environ.get("BTGEN_OSC_CORPUS", "/work/shared/corpus/openscenario/alks"))
+                    .joinpath("logical_scenarios").is_dir(), reason="the ALKS corpus is not on this machine")  # fmt: skip
+def test_the_openscenario_corpus_benchmark_takes_a_variation_apart(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """benchmarks.openscenario: a distribution's variation split into its parts, and the projection."""
+    pytest.importorskip("libsumo")
+    from benchmarks import openscenario
+
+    out = tmp_path / "o.json"
+    assert openscenario.main(["--skip-commands", "--sample", "1", "--only", "4_6_2", "--json", str(out)]) == 0
+    (row,) = json.loads(out.read_text())["files"]
+    assert row["count"] == 2 and row["sampled"] == 1 and set(row["mean"]) == set(openscenario.PARTS)
+    assert row["per variation"] == pytest.approx(sum(row["mean"].values())) and row["mean"]["sumo"] > 0

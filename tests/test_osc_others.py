@@ -217,3 +217,16 @@ def test_the_pytest_plugin_names_the_scenario_a_distributions_problem_is_in(tmp_
     assert done.returncode != 0
     where = "/OpenSCENARIO/Storyboard/Init/Actions/GlobalAction/EnvironmentAction: EnvironmentAction is not supported"
     assert f"s.xosc: {where}" in done.stdout and f"d.xosc: {where}" not in done.stdout, done.stdout
+
+
+def test_the_ego_reaching_the_end_of_its_road_ends_the_run_whatever_the_phase_of_its_last_step(tmp_path):
+    # esmini's alks_r157_cut_in_quick_brake.xosc on straight_500m.xodr: the Ego's front came 2.08 m from
+    # the end at 20 m/s, more than one step (2.0 m), and SUMO took it off the road at the next step - its
+    # front within 0.1 m of the end (SUMO arrives a vehicle there) - before `Ego.end_of_road` ever held:
+    # the run went on without it to an error. Here the front (reference point + 3.9 m) is 2.05 m from the
+    # end of the 2000 m road at 0.9 s and would be 0.05 m from it at 1.0 s: the run ends at 0.9 s.
+    init = place("Ego", LANE.format(s=1976.05), 20) + place("Lead", LANE.format(s=10), 0)
+    report = run(tmp_path, scenario(init, stop="30"))
+    verdicts = {o["id"]: o["verdict"] for o in report["oracles"]}
+    assert report["verdict"] == "fail" and verdicts["stop_trigger"] == "fail", report["verdict"]
+    assert report["duration"] == pytest.approx(0.9, abs=1e-9)

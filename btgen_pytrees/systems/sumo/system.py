@@ -90,6 +90,10 @@ met. ``warn`` leaves them where they are, in contact, on the tick the collision 
 HALTING = 0.1
 """m/s: slower than this an entity stands still (``E.still``), SUMO's own halting speed (its car-following
 models approach a standing car ever slower, never reaching 0)."""
+
+ARRIVAL_EPS = 0.1
+"""SUMO arrives a vehicle (takes it off the road) once its front is within this distance of the end of its
+route (its POSITION_EPS): ``E.end_of_road`` holds from the step that brings it there, so it is never missed."""
 LOOKAHEAD = 1000.0
 """Metres ahead in which a vehicle's leader counts (``V.gap`` and ``V.ttc`` are inf beyond; SUMO itself
 reports a leader further ahead on the same lane)."""
@@ -646,7 +650,7 @@ class SumoSystem:
             lane = self.road.net.lanes.get(r[_LANE_ID])
             route = self.road.routes.get(vid, ())
             end = (lane is not None and bool(route) and lane.edge == route[-1]
-                   and lane.length - r[_LANE_POSITION] <= max(speed * self.tick_length, 1e-3))  # fmt: skip
+                   and lane.length - r[_LANE_POSITION] <= speed * self.tick_length + ARRIVAL_EPS)  # fmt: skip
             if not posed:  # only what SUMO's own state says (still, end_of_road): no OpenDRIVE pose needed
                 for a, k in keys.items():
                     storage[k] = now - since if a == "still" else end

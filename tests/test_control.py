@@ -233,6 +233,43 @@ def test_the_tree_holds_py_trees_decorators() -> None:
     assert isinstance(Gate, type) and issubclass(Gate, py_trees.decorators.Decorator)
 
 
+def test_the_control_nodes_start_as_py_trees_own_init_starts_them() -> None:
+    """They are built without the chain of py_trees' ``__init__`` calls (leaves/control.py, ``_decorate``), so each is
+    compared with one that py_trees' own chain started: the same attributes in the same order, with the same values."""
+    import py_trees
+
+    from btgen_pytrees.expressions import parse
+    from btgen_pytrees.leaves import Environment
+    from btgen_pytrees.leaves.control import Condition
+
+    env = Environment("control_init", None, {"x": 0})
+    owner = Controlled.__new__(Controlled)
+    the_entry = load(case({**entry("A"), "attempts": 2})).entries[0]
+    Gate(py_trees.behaviours.Success("first"), owner, Condition(parse("x > 1")), env)  # the one its names' client attaches to
+    decorators = py_trees.decorators
+    made = [(lambda c: VirtualTimeout(c, 1.5, env, owner), decorators.Timeout, {"name": "timeout 1.5 s", "duration": 1.5}),
+            (lambda c: Attempts(c, 3, owner), decorators.Retry, {"name": "3 attempts", "num_failures": 3}),
+            (lambda c: Repetitions(c, 2, owner, starts=True), decorators.Repeat, {"name": "repeat 2", "num_success": 2}),
+            (lambda c: Gate(c, owner, Condition(parse("x > 1")), env), decorators.Decorator, {"name": "when x > 1"}),
+            (lambda c: Controlled(c, the_entry, env), decorators.Decorator, {"name": "A"})]  # fmt: skip
+    for make, base, arguments in made:
+        ours, child = make(py_trees.behaviours.Success("a")), py_trees.behaviours.Success("a")
+        stock = type(ours).__new__(type(ours))
+        base.__init__(stock, child=child, **arguments)  # type: ignore[call-arg]
+        expected = vars(stock)
+        assert list(vars(ours))[: len(expected)] == list(expected), type(ours)
+        for key, value in expected.items():
+            got = vars(ours)[key]
+            if key == "children":
+                assert got == [ours.decorated] and value == [child] and ours.decorated.parent is ours
+            elif key == "decorated":
+                assert type(got) is type(value)
+            else:
+                assert type(got) is type(value) and got == value, (type(ours), key)
+    with pytest.raises(TypeError, match="must be an instance of py_trees.behaviours.Behaviour"):
+        Attempts("not a node", 2, owner)  # type: ignore[arg-type]
+
+
 def test_plain_cases_build_no_control_nodes() -> None:
     root = generate(load(str(pathlib.Path(__file__).parents[1] / "examples" / "fig1.json")))
     assert not any(isinstance(n, (Controlled, Cuttable, StopGuard, Gate)) for n in root.iterate())

@@ -44,6 +44,21 @@ __all__ = ["Condition", "Gate", "VirtualTimeout", "Attempts", "Repetitions", "Co
 _SUCCESS, _FAILURE, _RUNNING, _INVALID = Status.SUCCESS, Status.FAILURE, Status.RUNNING, Status.INVALID
 
 
+def _decorate(node: Node, name: str, child: py_trees.behaviour.Behaviour) -> None:
+    """What ``py_trees.decorators.Decorator.__init__(node, name=name, child=child)`` does to a node of this module: the
+    child checked, :class:`~btgen_pytrees.leaves.node.Node`'s ``__init__``, the child held (``children``,
+    ``decorated``) and its parent set - without the chain of ``super().__init__`` calls with keywords through
+    py_trees' decorator classes, a third of what building one costs (a 100,000-entry case may have tens of
+    thousands). Each class here then sets what its py_trees base's ``__init__`` sets; ``tests/test_control.py``
+    compares the attributes with those py_trees' own ``__init__`` chain gives, in order."""
+    if not isinstance(child, py_trees.behaviour.Behaviour):
+        raise TypeError("A decorator's child must be an instance of py_trees.behaviours.Behaviour")
+    Node.__init__(node, name)
+    node.children.append(child)
+    node.decorated = child
+    child.parent = node
+
+
 def _tick(node: py_trees.behaviour.Behaviour) -> typing.Iterator[py_trees.behaviour.Behaviour]:
     """Tick *node* once, yielding what its tick yields (a leaf of the package without a generator)."""
     if type(node).tick is NODE_TICK:
@@ -129,7 +144,7 @@ class Gate(py_trees.decorators.Decorator, Node):
     """
 
     def __init__(self, child: py_trees.behaviour.Behaviour, owner: "Controlled", condition: Condition, env: Environment):
-        super().__init__(name=condition.describe(), child=child)
+        _decorate(self, condition.describe(), child)
         self.owner = owner
         self.condition = condition
         self.env = env
@@ -174,7 +189,9 @@ class VirtualTimeout(py_trees.decorators.Timeout, Node):
     on that tick keeps its status)."""
 
     def __init__(self, child: py_trees.behaviour.Behaviour, duration: float, env: Environment, owner: "Controlled"):
-        super().__init__(name=f"timeout {duration:g} s", child=child, duration=duration)
+        _decorate(self, f"timeout {duration:g} s", child)
+        self.duration = duration  # (py_trees' Timeout.__init__)
+        self.finish_time = 0.0
         self.env = env
         self.owner = owner
         self.started = 0.0
@@ -200,7 +217,9 @@ class Attempts(py_trees.decorators.Retry, Node):
     failed (the child is ticked again in the same tick)."""
 
     def __init__(self, child: py_trees.behaviour.Behaviour, attempts: int, owner: "Controlled"):
-        super().__init__(name=f"{attempts} attempts", child=child, num_failures=attempts)
+        _decorate(self, f"{attempts} attempts", child)
+        self.failures = 0  # (py_trees' Retry.__init__)
+        self.num_failures = attempts
         self.owner = owner
 
     def initialise(self) -> None:
@@ -230,7 +249,9 @@ class Repetitions(py_trees.decorators.Repeat, Node):
     the one before it succeeded (each waits for its ``when``/``delay`` again); the first failure fails it."""
 
     def __init__(self, child: py_trees.behaviour.Behaviour, repeat: int, owner: "Controlled", starts: bool):
-        super().__init__(name=f"repeat {repeat}", child=child, num_success=repeat)
+        _decorate(self, f"repeat {repeat}", child)
+        self.success = 0  # (py_trees' Repeat.__init__)
+        self.num_success = repeat
         self.owner = owner
         self.starts = starts  # no Gate below: a repetition's start is the action's
 
@@ -291,7 +312,7 @@ class Controlled(py_trees.decorators.Decorator, Node):
     """
 
     def __init__(self, child: py_trees.behaviour.Behaviour, entry: Entry, env: Environment, rivals: tuple[str, ...] = ()):
-        super().__init__(name=entry.name, child=child)
+        _decorate(self, entry.name, child)
         self.entry = entry
         self.control: Control = entry.control or Control()
         self.env = env

@@ -164,17 +164,17 @@ def test_coverage_counts_what_a_stopped_conversion_did_not_reach_as_not_reached(
     import jsonschema
 
     from btgen_pytrees.cli import main
-    weather = """<GlobalAction><EnvironmentAction><Environment name="sunny"><TimeOfDay animation="false" dateTime="2024-01-01T12:00:00"/>
-      </Environment></EnvironmentAction></GlobalAction>"""
+    weather = """<GlobalAction><EnvironmentAction><Environment name="icy"><TimeOfDay animation="false" dateTime="2024-01-01T12:00:00"/>
+      <RoadCondition frictionScaleFactor="0.5"/></Environment></EnvironmentAction></GlobalAction>"""
     write(tmp_path, scenario(weather + BOTH))
     assert main(["coverage", str(tmp_path), "--format", "json"]) == 1
     data = json.loads(capsys.readouterr().out)
     schema = json.loads((pathlib.Path(__file__).parent.parent / "schemas" / "coverage.schema.json").read_text())
     jsonschema.validate(data, schema)
     rows = {r["element"]: (r["supported"], r["unsupported"], r["unreached"]) for r in data["elements"]}
-    # the conversion stopped at the EnvironmentAction: it (and what it holds) is unsupported, the
-    # teleports after it were not reached - not "unsupported" - and the header before it was used
-    assert rows["EnvironmentAction"] == (0, 1, 0) and rows["TimeOfDay"] == (0, 1, 0)
+    # the conversion stopped at the RoadCondition (a friction it does not apply): it is unsupported, the
+    # teleports after it were not reached - not "unsupported" - and the header and time of day before it were used
+    assert rows["RoadCondition"] == (0, 1, 0) and rows["TimeOfDay"] == (1, 0, 0) and rows["EnvironmentAction"] == (1, 0, 0)
     assert rows["TeleportAction"] == (0, 0, 2) and rows["FileHeader"] == (1, 0, 0)
     assert data["summary"]["unreached"] == sum(1 for r in rows.values() if r[2])
     assert main(["coverage", str(tmp_path), "--format", "markdown"]) == 1
@@ -204,8 +204,7 @@ def test_the_pytest_plugin_names_the_scenario_a_distributions_problem_is_in(tmp_
     # `/OpenSCENARIO/Storyboard/...` is no place in the distribution (the CLI names the scenario too)
     import subprocess
     import sys
-    weather = """<GlobalAction><EnvironmentAction><Environment name="sunny"><TimeOfDay animation="false" dateTime="2024-01-01T12:00:00"/>
-      </Environment></EnvironmentAction></GlobalAction>"""
+    weather = "<GlobalAction>" + environment(friction="0.5") + "</GlobalAction>"
     write(tmp_path, scenario(weather + BOTH).replace("<ParameterDeclarations/>", '<ParameterDeclarations><ParameterDeclaration name="V" parameterType="double" value="1"/></ParameterDeclarations>'))
     (tmp_path / "d.xosc").write_text("""<?xml version="1.0" encoding="utf-8"?><OpenSCENARIO>
   <FileHeader revMajor="1" revMinor="3" date="2024-01-01T00:00:00" description="d" author="me"/>
@@ -215,7 +214,7 @@ def test_the_pytest_plugin_names_the_scenario_a_distributions_problem_is_in(tmp_
     done = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:randomly", "-p", "no:cacheprovider",
                            "--btgen-files=d.xosc"], cwd=tmp_path, capture_output=True, text=True, timeout=300)  # fmt: skip
     assert done.returncode != 0
-    where = "/OpenSCENARIO/Storyboard/Init/Actions/GlobalAction/EnvironmentAction: EnvironmentAction is not supported"
+    where = "/OpenSCENARIO/Storyboard/Init/Actions/GlobalAction/EnvironmentAction/Environment[@name='sunny']/RoadCondition: frictionScaleFactor 0.5"
     assert f"s.xosc: {where}" in done.stdout and f"d.xosc: {where}" not in done.stdout, done.stdout
 
 
@@ -230,3 +229,65 @@ def test_the_ego_reaching_the_end_of_its_road_ends_the_run_whatever_the_phase_of
     verdicts = {o["id"]: o["verdict"] for o in report["oracles"]}
     assert report["verdict"] == "fail" and verdicts["stop_trigger"] == "fail", report["verdict"]
     assert report["duration"] == pytest.approx(0.9, abs=1e-9)
+
+
+WEATHER = """<Environment name="{name}"><TimeOfDay animation="false" dateTime="2024-01-01T12:00:00"/>
+  <Weather fractionalCloudCover="zeroOktas"><Sun illuminance="100000" azimuth="0" elevation="1.57"/><Fog visualRange="{fog}"/>
+    <Precipitation precipitationType="rain" precipitationIntensity="2"/></Weather>
+  <RoadCondition frictionScaleFactor="{friction}"/></Environment>"""
+
+
+def environment(name: str = "sunny", fog: str = "100000", friction: str = "1.0") -> str:
+    return f"<EnvironmentAction>{WEATHER.format(name=name, fog=fog, friction=friction)}</EnvironmentAction>"
+
+
+def test_an_environment_action_is_read_and_changes_nothing_a_sumo_run_models(tmp_path):
+    # 5 of ASAM's 7 1.3 examples and esmini's cut-in set the weather in the Init: SUMO models no light,
+    # weather or fog (nor do esmini's physics). Read in the Init and in an event, the run is the same run.
+    condition = '<SpeedCondition value="15" rule="greaterThan"/>'
+    plain = scenario(BOTH, brake_when(condition), stop="1.5")
+    init = "<GlobalAction>" + environment(fog="$Fog") + "</GlobalAction>" + BOTH
+    story = brake_when(condition).replace('<Action name="Hold">', f'<Action name="Fog"><GlobalAction>{environment("foggy", "30")}</GlobalAction></Action><Action name="Hold">')
+    foggy = scenario(init, story, stop="1.5").replace("<ParameterDeclarations/>", '<ParameterDeclarations><ParameterDeclaration name="Fog" parameterType="double" value="50"/></ParameterDeclarations>')
+    doc = read_openscenario(write(tmp_path, foggy))
+    fog = next(e for e in doc["execute"] if e["name"].startswith("Action Fog"))
+    assert fog["name"] == "Action Fog (Environment foggy: read, no effect on a SUMO run)" and fog["params"] == {"duration": 0}
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    first, second = run(tmp_path / "a", plain), run(tmp_path / "b", foggy)
+    assert second["verdict"] == first["verdict"] == "pass" and second["duration"] == first["duration"] == pytest.approx(1.5, abs=0.11)
+    verdicts = [{o["id"]: o["verdict"] for o in r["oracles"]} for r in (first, second)]
+    assert verdicts[0] == verdicts[1] and "completed-Near" in verdicts[0]
+    starts = [{e["id"]: (e.get("start"), e.get("end")) for e in r["execute"] if e["id"] in ("Near", "Hold")} for r in (first, second)]
+    assert starts[0] == starts[1] and starts[0]["Near"][0] is not None
+
+
+def test_a_road_friction_other_than_1_is_refused_at_its_element(tmp_path):
+    # a friction scale changes braking, which SUMO's vehicles would not do: refused, not silently dropped
+    init = "<GlobalAction>" + environment(friction="0.5") + "</GlobalAction>" + BOTH
+    assert problems(write(tmp_path, scenario(init))) == [
+        "/OpenSCENARIO/Storyboard/Init/Actions/GlobalAction/EnvironmentAction/Environment[@name='sunny']/RoadCondition: "
+        "frictionScaleFactor 0.5 is not supported: SUMO's vehicles brake and accelerate as on a dry road (only 1 is, which changes nothing)"]
+    story = brake_when('<SpeedCondition value="15" rule="greaterThan"/>').replace(
+        '<Action name="Hold">', f'<Action name="Ice"><GlobalAction>{environment("icy", friction="0.2")}</GlobalAction></Action><Action name="Hold">')
+    assert problems(write(tmp_path, scenario(BOTH, story)))[0].endswith(
+        "/Action[@name='Ice']/GlobalAction/EnvironmentAction/Environment[@name='icy']/RoadCondition: "
+        "frictionScaleFactor 0.2 is not supported: SUMO's vehicles brake and accelerate as on a dry road (only 1 is, which changes nothing)")
+    unknown = scenario("<GlobalAction>" + environment().replace("<TimeOfDay", "<Smog level='3'/><TimeOfDay") + "</GlobalAction>" + BOTH)
+    assert problems(write(tmp_path, unknown)) == [
+        "/OpenSCENARIO/Storyboard/Init/Actions/GlobalAction/EnvironmentAction/Environment[@name='sunny']/Smog: "
+        "unsupported element Smog: not converted (see docs/openscenario.md)"]
+
+
+def test_coverage_says_an_environment_is_read_with_no_effect(tmp_path, capsys):
+    import jsonschema
+
+    from btgen_pytrees.cli import main
+    write(tmp_path, scenario("<GlobalAction>" + environment() + "</GlobalAction>" + BOTH))
+    assert main(["coverage", str(tmp_path), "--format", "json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    jsonschema.validate(data, json.loads((pathlib.Path(__file__).parent.parent / "schemas" / "coverage.schema.json").read_text()))
+    flagged = sorted(r["element"] for r in data["elements"] if r.get("no_effect"))
+    assert flagged == ["Environment", "EnvironmentAction", "Fog", "Precipitation", "RoadCondition", "Sun", "TimeOfDay", "Weather"]
+    assert main(["coverage", str(tmp_path)]) == 0
+    assert capsys.readouterr().out.rstrip().endswith(
+        "read, no effect on a SUMO run (light, weather, road surface: docs/openscenario.md): " + ", ".join(flagged))

@@ -15,13 +15,16 @@ from typing import Any, Callable
 from .parameters import Scope
 from .xmltree import Node, XmlProblem
 
-__all__ = ["ActionWriter", "SHAPES", "DIMENSIONS", "POSITIONS"]
+__all__ = ["ActionWriter", "SHAPES", "DIMENSIONS", "POSITIONS", "ENVIRONMENT_PARTS"]
 
 SHAPES = ("linear", "cubic", "sinusoidal", "step")
 DIMENSIONS = {"time": "duration", "rate": "rate", "distance": "distance"}
 POSITIONS = ("LanePosition", "RelativeLanePosition", "RoadPosition", "RelativeRoadPosition", "WorldPosition",
              "RelativeWorldPosition", "RelativeObjectPosition")  # fmt: skip
 _STRINGS = {"roadId", "entityRef", "type"}
+# what an Environment may hold (1.0-1.3): light, weather and the road's surface - read, none of it moves an entity
+ENVIRONMENT_PARTS = frozenset({"TimeOfDay", "Weather", "Sun", "Fog", "Precipitation", "Wind", "DomeImage", "DomeFile",
+                               "BoundingBox", "Center", "Dimensions", "RoadCondition", "Properties", "Property", "File"})  # fmt: skip
 _INTEGERS = {"laneId", "dLane"}
 
 
@@ -206,6 +209,36 @@ class ActionWriter:
         if "initialDistanceOffset" in node.attrs and s.number(node, "initialDistanceOffset") != 0:
             raise XmlProblem(node, "an initialDistanceOffset other than 0 is not supported")
         return params
+
+    def environment(self, node: Node, catalogs: Any) -> str:
+        """An ``EnvironmentAction`` (7.3.2): read, with no effect on the run; the Environment's name.
+
+        Time of day, sun, fog, clouds, precipitation, wind and road properties change what sensors and
+        drivers would see; SUMO models none of them (nor do esmini's physics), so every attribute is
+        evaluated (a bad ``$`` reference is still exit 2) and nothing is applied. What would change the
+        motion and is not applied - a ``RoadCondition`` ``frictionScaleFactor`` other than 1 - is refused
+        at its element. An element not in :data:`ENVIRONMENT_PARTS` stays unused: reported unsupported.
+        """
+        inner = node.only()
+        scope = self.scope
+        if inner.tag == "CatalogReference":
+            inner, scope = catalogs.resolve("EnvironmentCatalog", inner, scope)
+        elif inner.tag != "Environment":
+            raise XmlProblem(inner, f"{inner.tag} in an EnvironmentAction is not supported")
+        name = scope.text(inner, "name") or "environment"
+        todo = [c for c in inner.children if c.tag in ENVIRONMENT_PARTS]
+        while todo:
+            part = todo.pop(0).use()
+            for attr in part.attrs:
+                if part.tag == "RoadCondition" and attr == "frictionScaleFactor":
+                    friction = scope.number(part, attr)
+                    if friction != 1:
+                        raise XmlProblem(part, f"frictionScaleFactor {friction:g} is not supported: SUMO's vehicles brake and "
+                                               "accelerate as on a dry road (only 1 is, which changes nothing)")  # fmt: skip
+                else:
+                    scope.text(part, attr)
+            todo.extend(c for c in part.children if c.tag in ENVIRONMENT_PARTS)
+        return name
 
     def variable_action(self, node: Node) -> tuple[str, dict[str, Any]]:
         """``VariableAction``/``ParameterAction`` (1.0's ``ParameterSetAction``) -> ``set`` of its signal."""

@@ -6,7 +6,8 @@ distribution, catalog), whether it converts, its problems; and over all files, p
 how often it occurs and how often the conversion used it. An element of a file that could not be
 converted past a problem counts as *not reached* beyond that problem - neither supported nor known to be
 unsupported (a file whose conversion stopped at its first problem says nothing of the elements after it:
-``TeleportAction`` is no less supported for an ``EnvironmentAction`` before it). The result is
+``TeleportAction`` is no less supported for a road friction refused before it). An element that is read and
+has no effect on a SUMO run (an ``EnvironmentAction`` and what it holds) is flagged ``no_effect``. The result is
 data (:func:`coverage`), shown as a table (:func:`table`, :func:`markdown`) or as JSON
 (``schemas/coverage.schema.json``).
 """
@@ -29,6 +30,9 @@ from .xmltree import Node, XmlProblem, read_xml
 __all__ = ["coverage", "table", "markdown", "to_json", "MAX_FILES"]
 
 MAX_FILES = 10_000
+# read, no effect on a SUMO run (actions.ENVIRONMENT_PARTS less the parts other elements have too: a BoundingBox, Properties)
+NO_EFFECT = frozenset({"EnvironmentAction", "Environment", "TimeOfDay", "Weather", "Sun", "Fog", "Precipitation", "Wind",
+                       "DomeImage", "DomeFile", "RoadCondition"})  # fmt: skip
 
 
 def _files(top: str) -> Iterator[str]:
@@ -103,6 +107,9 @@ def coverage(top: str) -> dict[str, Any]:
         files.append(entry)
     rows = [{"element": tag, "occurrences": c["total"], "supported": c["supported"], "unsupported": c["unsupported"],
              "unreached": c["unreached"]} for tag, c in sorted(elements.items())]  # fmt: skip
+    for r in rows:
+        if r["element"] in NO_EFFECT and r["supported"]:
+            r["no_effect"] = True
     converted = [f for f in files if f.get("kind") in ("scenario", "distribution")]
     return {"directory": os.path.basename(os.path.normpath(top)), "files": converted,
             "elements": rows, "summary": {"files": len(converted), "converting": sum(f["converts"] for f in converted),
@@ -126,7 +133,13 @@ def table(data: dict[str, Any]) -> str:
         lines.append(f"{r['element']:<45} {r['occurrences']:>11} {r['supported']:>9} {r['unsupported']:>11} {r['unreached']:>11}")
     lines.append("")
     lines.append(_summary(data["summary"]))
+    lines.extend(_no_effect(data["elements"]))
     return "\n".join(lines) + "\n"
+
+
+def _no_effect(rows: list[dict[str, Any]]) -> list[str]:
+    names = [r["element"] for r in rows if r.get("no_effect")]
+    return [f"read, no effect on a SUMO run (light, weather, road surface: docs/openscenario.md): {', '.join(names)}"] if names else []
 
 
 def _summary(s: dict[str, Any]) -> str:
@@ -144,6 +157,7 @@ def markdown(data: dict[str, Any]) -> str:
         lines.append(f"| `{r['element']}` | {r['occurrences']} | {r['supported']} |" + ("" if reached else f" {r['unreached']} |"))
     lines.append("")
     lines.append(_summary(data["summary"]) + ".")
+    lines.extend(_no_effect(data["elements"]))
     return "\n".join(lines) + "\n"
 
 

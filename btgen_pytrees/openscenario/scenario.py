@@ -250,8 +250,8 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
             if inner.tag in ("VariableAction", "ParameterAction"):
                 kind, params = timeline.actions.variable_action(inner)
                 timeline.signals[params["signal"]] = params["value"]  # at time 0: the initial value
-            elif inner.tag == "EnvironmentAction":
-                raise XmlProblem(inner, "EnvironmentAction is not supported (weather and light do not change SUMO's motion)")
+            elif inner.tag == "EnvironmentAction":  # read, no effect on a SUMO run (docs/openscenario.md)
+                timeline.actions.environment(inner, catalogs)
             else:
                 raise XmlProblem(inner, f"{inner.tag} is not supported")
         elif part.tag == "UserDefinedAction":

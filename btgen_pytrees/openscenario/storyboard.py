@@ -482,9 +482,13 @@ class Timeline:
                     inner = body.only()
                     if inner.tag in ("VariableAction", "ParameterAction"):
                         kind, params = self.actions.variable_action(inner)
+                        a = self.entry(aname, f"Action {aname}", "behavior", kind, params, [begin])
+                    elif inner.tag == "EnvironmentAction":  # read, no effect on a SUMO run: ends on the tick it starts
+                        env = self.actions.environment(inner, self.catalogs)
+                        a = self.entry(aname, f"Action {aname} (Environment {env}: read, no effect on a SUMO run)",
+                                       "constraint", "wait", {"duration": 0}, [begin])  # fmt: skip
                     else:
-                        raise XmlProblem(inner, f"{inner.tag} is not supported (VariableAction, ParameterAction are)")
-                    a = self.entry(aname, f"Action {aname}", "behavior", kind, params, [begin])
+                        raise XmlProblem(inner, f"{inner.tag} is not supported (VariableAction, ParameterAction, EnvironmentAction are)")
                     mine.append(a["id"])
                 else:
                     raise XmlProblem(body, f"{body.tag} is not supported (PrivateAction, GlobalAction are)")

@@ -365,3 +365,25 @@ def test_an_event_with_an_empty_start_trigger_starts_with_its_maneuver(tmp_path)
     report = run(tmp_path, scenario(BOTH.replace('ds="40"', 'ds="200"'), story))
     start = {e["id"]: e["start"] for e in report["execute"]}
     assert start["A"] == start["M"] == start["Now"] == start["NowA"] == pytest.approx(0.5) and start["Later"] == pytest.approx(1.0)
+
+
+def test_an_entity_name_with_a_space_is_mapped_to_a_signal_name_the_expressions_can_read(tmp_path):
+    # ASAM's SimpleOvertake names its cars "Vehicle 1", "Vehicle 2": a signal `Vehicle 1.speed` could not be
+    # read by an expression, so the entity's signals (and its SUMO vehicle) carry `Vehicle_1`
+    from btgen_pytrees.openscenario.scenario import signal_names
+    assert signal_names(["Vehicle 1", "Vehicle_1", "and", "sim", "2nd car", "Ego", "Fahrzeug-ä"]) == {
+        "Vehicle 1": "Vehicle_1_2", "Vehicle_1": "Vehicle_1", "and": "and_", "sim": "sim_", "2nd car": "E_2nd_car",
+        "Ego": "Ego", "Fahrzeug-ä": "Fahrzeug__"}
+    text = scenario(BOTH, brake_when('<SpeedCondition value="15" rule="greaterThan"/>'), stop="1.5")
+    text = text.replace('"Lead"', '"Lead car"').replace('"Ego"', '"my ego"')
+    doc = read_openscenario(write(tmp_path, text))
+    assert list(doc["system"]["entities"]) == ["my_ego", "Lead_car"]
+    assert doc["system"]["entities"]["Lead_car"]["position"] == {"RelativeLanePosition": {"entityRef": "my_ego", "dLane": 0, "ds": 40.0}}
+    near = next(e for e in doc["execute"] if e["id"] == "Near")
+    assert near["when"] == "my_ego.speed > 15"
+    report = run(tmp_path, text.replace("</Storyboard>", "</Storyboard>"))
+    start = {e["id"]: e["start"] for e in report["execute"]}
+    assert report["verdict"] == "pass" and start["Hold"] == pytest.approx(0.0)  # my_ego.speed read from SUMO: 20 m/s > 15
+    assert problems(write(tmp_path, text.replace('<EntityRef entityRef="Lead car"/>', '<EntityRef entityRef="Lead_car"/>'))) == [
+        "/OpenSCENARIO/Storyboard/Story[@name='S']/Act[@name='A']/ManeuverGroup[@name='G']/Actors/EntityRef: "
+        "entityRef='Lead_car' names no entity (entities: my ego, Lead car)"]

@@ -10,7 +10,7 @@ as the position objects of the road system (one key, the OSC element name; attri
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 from .parameters import Scope
 from .xmltree import Node, XmlProblem
@@ -33,11 +33,11 @@ class ActionWriter:
 
     Args:
         scope: the parameters
-        entities: the ScenarioObject names
+        entities: the ScenarioObject names -> the names their signals carry (:func:`.scenario.signal_names`)
         variable: ``(name, node) -> (signal, kind)`` for variable actions
     """
 
-    def __init__(self, scope: Scope, entities: list[str], variable: Callable[[str, Node], str],
+    def __init__(self, scope: Scope, entities: Mapping[str, str], variable: Callable[[str, Node], str],
                  controller: Callable[[str], str | None] = lambda name: None):  # fmt: skip
         self.scope, self.entities, self.variable, self.controller = scope, entities, variable, controller
         self.object_controllers: dict[str, str | None] = {}  # entity -> the name of its ObjectController (1.3)
@@ -46,7 +46,7 @@ class ActionWriter:
         name = self.scope.text(node, attr) or ""
         if name not in self.entities:
             raise XmlProblem(node, f"{attr}={name!r} names no entity (entities: {', '.join(self.entities)})")
-        return name
+        return self.entities[name]
 
     def position(self, node: Node) -> dict[str, Any]:
         """A ``Position`` element as the road system's position object."""

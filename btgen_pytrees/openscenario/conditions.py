@@ -22,7 +22,7 @@ system's signals (:class:`ConditionWriter`); :mod:`.storyboard` places the entri
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Mapping
 
 from .parameters import Scope
 from .xmltree import Node, XmlProblem
@@ -60,14 +60,14 @@ class ConditionWriter:
 
     Args:
         scope: the parameters
-        entities: the ScenarioObject names
+        entities: the ScenarioObject names -> the names their signals carry (:func:`.scenario.signal_names`)
         state: ``(element type, name, state, node) -> expression`` for StoryboardElementStateCondition
         variable: ``(name, node) -> signal`` for VariableCondition
         position: ``(Position node) -> (x, y)`` world coordinates, for ReachPosition/Distance
         clock: ``() -> signal`` of the run's time, for SimulationTimeCondition
     """
 
-    def __init__(self, scope: Scope, entities: list[str], state: Callable[[str, str, str, Node], str],
+    def __init__(self, scope: Scope, entities: Mapping[str, str], state: Callable[[str, str, str, Node], str],
                  variable: Callable[[str, Node], str], position: Callable[[Node], tuple[float, float]] | None = None,
                  clock: Callable[[], str] = lambda: "sim.time"):  # fmt: skip
         self.scope, self.entities, self.state, self.variable, self.position = scope, entities, state, variable, position
@@ -95,7 +95,7 @@ class ConditionWriter:
         name = self.scope.text(node, attr) or ""
         if name not in self.entities:
             raise XmlProblem(node, f"{attr}={name!r} names no entity (entities: {', '.join(self.entities)})")
-        return name
+        return self.entities[name]
 
     def by_value(self, c: Node) -> str:
         tag = c.tag

@@ -21,15 +21,17 @@ every event that started has completed. A sidecar oracle adds or replaces them (
 from __future__ import annotations
 
 import os
+import re
 from typing import Any, Mapping
 
+from ..expressions import RESERVED
 from .catalogs import Catalogs
 from .motion import Motion
 from .parameters import Scope
 from .storyboard import Timeline
 from .xmltree import Node, XmlProblem
 
-__all__ = ["convert_scenario", "REVISIONS", "EGO_NAMES", "DEFAULT_TIMEOUT", "DEFAULT_TICK", "Options"]
+__all__ = ["convert_scenario", "signal_names", "REVISIONS", "EGO_NAMES", "DEFAULT_TIMEOUT", "DEFAULT_TICK", "Options"]
 
 REVISIONS = ((1, 0), (1, 1), (1, 2), (1, 3))
 EGO_NAMES = ("Ego", "ego", "hero")
@@ -161,6 +163,36 @@ def _placement_order(entities: dict[str, dict[str, Any]], init: Node) -> dict[st
     return ordered
 
 
+_SIGNAL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+_NOT_IN_NAME = re.compile(r"[^A-Za-z0-9_]")
+
+
+def signal_names(names: list[str]) -> dict[str, str]:
+    """Each ScenarioObject name -> the name its signals (``NAME.speed``) and its SUMO vehicle carry.
+
+    A name the expression language can read (an ASCII letter, then letters, digits, ``_``; not a word of
+    the language, not ``sim``) is kept. Any other - ASAM's ``Vehicle 1`` - is mapped: every other character
+    becomes ``_``, a name not starting with a letter gets ``E_`` before it, a reserved word ``_`` after it,
+    and ``_2``, ``_3`` ... until it is no other entity's name. References in the file (``entityRef``)
+    use the scenario's names; the case, its signals and its views the mapped ones."""
+    kept = {n for n in names if _SIGNAL_NAME.fullmatch(n) and n not in RESERVED and n != "sim"}
+    taken = {n.casefold() for n in kept}
+    result: dict[str, str] = {}
+    for name in names:
+        if name in kept:
+            result[name] = name
+            continue
+        base = _NOT_IN_NAME.sub("_", name)
+        base = base if base[:1].isalpha() else "E_" + base
+        base = base + "_" if base in RESERVED or base == "sim" else base
+        found, n = base, 2
+        while found.casefold() in taken:
+            found, n = f"{base}_{n}", n + 1
+        taken.add(found.casefold())
+        result[name] = found
+    return result
+
+
 def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = None, options: Options | None = None,
                      check_constraints: bool = True, case_dir: str | None = None) -> tuple[dict[str, Any], Catalogs]:  # fmt: skip
     """The case document of the scenario *root* (read from *path*), its parameters set to *given*;
@@ -193,12 +225,18 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     entities_node = root.need_child("Entities")
     entities: dict[str, dict[str, Any]] = {}
     assigned: dict[str, str | None] = {}
-    for obj in entities_node.all("ScenarioObject"):
+    objects = entities_node.all("ScenarioObject")
+    given_names: list[str] = []
+    for obj in objects:
         name = scope.text(obj, "name") or ""
-        if not name or not (name[0].isalpha()) or not name.replace("_", "a").isalnum():
-            raise XmlProblem(obj, f"entity name {name!r}: only names of letters, digits and _ (starting with a letter) are supported: they name signals")
-        if name in entities:
+        if not name:
+            raise XmlProblem(obj, "a ScenarioObject needs a name")
+        if name in given_names:
             raise XmlProblem(obj, f"two entities are named {name!r}")
+        given_names.append(name)
+    aliases = signal_names(given_names)  # "Vehicle 1" -> Vehicle_1: the name of its signals
+    original = {safe: name for name, safe in aliases.items()}
+    for obj, name in zip(objects, aliases.values()):
         entities[name] = _entity(obj, scope, catalogs)
         entities[name]["controller"] = False
         ctrl = obj.child("ObjectController")
@@ -215,8 +253,10 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     for child in entities_node.children:
         if child.tag == "EntitySelection":
             raise XmlProblem(child, "EntitySelection is not supported")
-    names = list(entities)
-    timeline = Timeline(scope, names, catalogs, options.controllers.get, road=os.path.join(base, road))
+    names = list(aliases)
+    controllers = options.controllers
+    timeline = Timeline(scope, aliases, catalogs, lambda safe: controllers.get(original.get(safe, safe), controllers.get(safe)),
+                        road=os.path.join(base, road))  # fmt: skip
     timeline.actions.object_controllers = assigned
     timeline.declare_variables(root.child("VariableDeclarations"))
     board = root.need_child("Storyboard")
@@ -227,9 +267,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     for part in actions.children:
         part.use()
         if part.tag == "Private":
-            actor = scope.text(part, "entityRef") or ""
-            if actor not in entities:
-                raise XmlProblem(part, f"entityRef={actor!r} names no entity (entities: {', '.join(names)})")
+            actor = timeline.actions.entity(part)
             for pa in part.all("PrivateAction"):
                 kind, params = timeline.actions.private(pa, actor)
                 if kind == "sumo.teleport" and "position" not in entities[actor]:
@@ -270,8 +308,8 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
         timeline.lowered(pa, actor, kind, params, f"init-{actor}-{short}", f"Init {actor} {short}", [])
     timeline.storyboard(board, [])
     timeline.resolve_states()
-    ego = options.ego or next((n for n in EGO_NAMES if n in entities), None)
-    if options.ego is not None and options.ego not in entities:
+    ego = aliases.get(options.ego, options.ego) if options.ego else next((n for n in EGO_NAMES if n in entities), None)
+    if options.ego is not None and ego not in entities:
         raise XmlProblem(entities_node, f"--ego {options.ego!r} names no entity (entities: {', '.join(names)})")
     criteria: list[dict[str, Any]] = []
     if ego is not None:

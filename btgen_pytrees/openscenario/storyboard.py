@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 from ..systems.sumo.opendrive import OpenDriveError, read_opendrive
 from ..systems.sumo.roads import resolve
@@ -106,7 +106,7 @@ class Execution:
 class Timeline:
     """The entries, signals and stop conditions of one storyboard."""
 
-    def __init__(self, scope: Scope, entities: list[str], catalogs: Any,
+    def __init__(self, scope: Scope, entities: Mapping[str, str], catalogs: Any,
                  controller: Callable[[str], str | None] = lambda name: None,
                  road: str | None = None):  # fmt: skip
         self.scope = scope
@@ -346,10 +346,7 @@ class Timeline:
             raise XmlProblem(actors, "selectTriggeringEntities=true is not supported")
         names = []
         for ref in actors.all("EntityRef"):
-            actor = self.scope.text(ref, "entityRef") or ""
-            if actor not in self.entities:
-                raise XmlProblem(ref, f"entityRef={actor!r} names no entity (entities: {', '.join(self.entities)})")
-            names.append(actor)
+            names.append(self.actions.entity(ref))
         self.elements.append(group)
         after, outer = [act.id], self.copy
         repeating = self.repeating

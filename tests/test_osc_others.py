@@ -387,3 +387,23 @@ def test_an_entity_name_with_a_space_is_mapped_to_a_signal_name_the_expressions_
     assert problems(write(tmp_path, text.replace('<EntityRef entityRef="Lead car"/>', '<EntityRef entityRef="Lead_car"/>'))) == [
         "/OpenSCENARIO/Storyboard/Story[@name='S']/Act[@name='A']/ManeuverGroup[@name='G']/Actors/EntityRef: "
         "entityRef='Lead_car' names no entity (entities: my ego, Lead car)"]
+
+
+def test_coverage_says_a_distributions_scenario_does_not_convert(tmp_path, capsys):
+    # ASAM's SlowPrecedingVehicle parameter sets: coverage said "ok" for a distribution whose scenario stops
+    from btgen_pytrees.cli import main
+    declared = '<ParameterDeclarations><ParameterDeclaration name="V" parameterType="double" value="1"/></ParameterDeclarations>'
+    write(tmp_path, scenario("<GlobalAction>" + environment(friction="0.5") + "</GlobalAction>" + BOTH).replace("<ParameterDeclarations/>", declared))
+    (tmp_path / "d.xosc").write_text("""<?xml version="1.0" encoding="utf-8"?><OpenSCENARIO>
+  <FileHeader revMajor="1" revMinor="3" date="2024-01-01T00:00:00" description="d" author="me"/>
+  <ParameterValueDistribution><ScenarioFile filepath="s.xosc"/><Deterministic><DeterministicSingleParameterDistribution parameterName="V">
+    <DistributionSet><Element value="1"/><Element value="2"/></DistributionSet></DeterministicSingleParameterDistribution></Deterministic>
+  </ParameterValueDistribution></OpenSCENARIO>""")
+    assert main(["coverage", str(tmp_path), "--format", "json"]) == 1
+    files = {f["file"]: f for f in json.loads(capsys.readouterr().out)["files"]}
+    where = "/OpenSCENARIO/Storyboard/Init/Actions/GlobalAction/EnvironmentAction/Environment[@name='sunny']/RoadCondition: frictionScaleFactor 0.5"
+    assert files["s.xosc"]["problems"][0].startswith(where)
+    assert not files["d.xosc"]["converts"] and files["d.xosc"]["problems"][0].startswith("s.xosc: " + where)
+    write(tmp_path, scenario(BOTH).replace("<ParameterDeclarations/>", declared))  # the scenario fixed: both convert
+    assert main(["coverage", str(tmp_path)]) == 0
+    assert "d.xosc" in capsys.readouterr().out

@@ -21,7 +21,7 @@ from typing import Any, Iterator
 
 from ..errors import InvalidTestCase
 from .catalogs import forget
-from .convert import scan
+from .convert import read_openscenario, scan
 from .distributions import parse_distribution
 from .parameters import Scope
 from .scenario import Options, convert_scenario, header
@@ -96,6 +96,8 @@ def coverage(top: str) -> dict[str, Any]:
         if not problems:
             from_scan = scan(root, catalogs) if catalogs is not None else scan(root, _NoCatalogs())
             problems.extend(f"{p.pointer}: {p.message}" for p in from_scan)
+        if kind == "distribution" and not problems:  # it converts only if its scenario does (as `validate` reads it)
+            problems.extend(_scenario_problems(path))
         _tally(root, elements, stopped, at)
         if catalogs is not None:
             for cat in catalogs.files:
@@ -115,6 +117,19 @@ def coverage(top: str) -> dict[str, Any]:
             "elements": rows, "summary": {"files": len(converted), "converting": sum(f["converts"] for f in converted),
                                           "elements": len(rows), "fully_supported": sum(r["unsupported"] == r["unreached"] == 0 for r in rows),
                                           "unreached": sum(r["unreached"] > 0 for r in rows)}}  # fmt: skip
+
+
+def _scenario_problems(path: str) -> list[str]:
+    """The problems of the distribution *path* read as every command reads it: its scenario converted, its
+    parameters declared there; a problem in the scenario file names that file (relative to the distribution's)."""
+    forget()
+    try:
+        read_openscenario(path)
+    except InvalidTestCase as exc:
+        where = "" if os.path.abspath(exc.source) == os.path.abspath(path) else \
+            f"{os.path.relpath(exc.source, os.path.dirname(os.path.abspath(path)))}: "  # fmt: skip
+        return [f"{where}{p.pointer}: {p.message}" for p in exc.problems]
+    return []
 
 
 class _NoCatalogs:

@@ -407,3 +407,16 @@ def test_coverage_says_a_distributions_scenario_does_not_convert(tmp_path, capsy
     write(tmp_path, scenario(BOTH).replace("<ParameterDeclarations/>", declared))  # the scenario fixed: both convert
     assert main(["coverage", str(tmp_path)]) == 0
     assert "d.xosc" in capsys.readouterr().out
+
+
+def test_a_name_written_like_an_expression_is_a_name(tmp_path):
+    # esmini's cut-in.xosc names a condition "${BrakeCondition_HWT + _ + $HeadwayTime_Brake}": a name is the
+    # XSD's String (a $parameter or any text); expressions are numbers and booleans - it is read as text
+    story = brake_when('<SpeedCondition value="15" rule="greaterThan"/>').replace('<Condition name="c"', '<Condition name="${Brake_HWT + _ + $V}"')
+    story = story.replace('<Event name="Near"', '<Event name="$EventName"')
+    declared = ('<ParameterDeclarations><ParameterDeclaration name="V" parameterType="double" value="1"/>'
+                '<ParameterDeclaration name="EventName" parameterType="string" value="Near"/></ParameterDeclarations>')  # fmt: skip
+    doc = read_openscenario(write(tmp_path, scenario(BOTH, story).replace("<ParameterDeclarations/>", declared)))
+    assert next(e for e in doc["execute"] if e["id"] == "Near")["when"] == "Ego.speed > 15"
+    assert problems(write(tmp_path, scenario(BOTH, story.replace('"$EventName"', '"$Nobody"')).replace("<ParameterDeclarations/>", declared)))[0].endswith(
+        "unknown parameter '$Nobody' (declared: EventName, V)")

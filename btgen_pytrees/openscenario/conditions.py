@@ -74,7 +74,7 @@ class ConditionWriter:
         self.clock = clock
 
     def condition(self, node: Node) -> Condition:
-        name = self.scope.text(node, "name") or ""
+        name = self.scope.name(node)
         delay = self.scope.number(node, "delay", 0.0)
         if delay < 0:
             raise XmlProblem(node, f"delay {delay:g} must not be negative")

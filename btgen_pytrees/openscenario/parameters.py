@@ -153,6 +153,15 @@ class Scope:
         raw = node.get(name, default)
         return None if raw is None else _text(self.value(node, raw))
 
+    def name(self, node: Node, attr: str = "name", default: str = "") -> str:
+        """An element's name (the XSD's ``String``: a ``$parameter`` or any text): ``${...}`` in it is text,
+        not an expression - expressions are numbers and booleans (esmini's cut-in names a condition
+        ``${BrakeCondition_HWT + _ + $HeadwayTime_Brake}``)."""
+        raw = node.get(attr)
+        if raw is None or raw.startswith("${"):
+            return raw or default
+        return _text(self.value(node, raw)) or default
+
     def number(self, node: Node, name: str, default: float | None = None) -> float:
         raw = node.get(name)
         if raw is None:

@@ -228,7 +228,7 @@ def convert_scenario(root: Node, path: str, given: Mapping[str, Any] | None = No
     objects = entities_node.all("ScenarioObject")
     given_names: list[str] = []
     for obj in objects:
-        name = scope.text(obj, "name") or ""
+        name = scope.name(obj)
         if not name:
             raise XmlProblem(obj, "a ScenarioObject needs a name")
         if name in given_names:

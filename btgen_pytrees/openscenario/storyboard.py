@@ -289,7 +289,7 @@ class Timeline:
                 raise XmlProblem(child, f"{child.tag} in the Storyboard is not supported")
 
     def story(self, node: Node, after: list[str]) -> None:
-        name = self.scope.text(node, "name") or "story"
+        name = self.scope.name(node, default="story")
         declarations = node.child("ParameterDeclarations")
         scope_before = self.scope
         if declarations is not None:  # 1.0/1.1: a Story may declare parameters of its own
@@ -310,7 +310,7 @@ class Timeline:
         self.scope = self.conditions.scope = self.actions.scope = scope
 
     def act(self, node: Node, story: Element) -> None:
-        name = self.scope.text(node, "name") or "act"
+        name = self.scope.name(node, default="act")
         act = Element("act", name, "", node, story)
         story.children.append(act)
         e = self.marker("Act", name, [story.id])
@@ -335,7 +335,7 @@ class Timeline:
     def group(self, node: Node, act: Element) -> None:
         """A ManeuverGroup, executed ``maximumExecutionCount`` times in a row (8.3.2: each execution starts when
         the one before is over; it has no StartTrigger): one copy of its maneuvers per execution."""
-        name = self.scope.text(node, "name") or "group"
+        name = self.scope.name(node, default="group")
         count = self.scope.integer(node, "maximumExecutionCount", 1)
         if not 1 <= count <= MAX_EXECUTIONS:
             raise XmlProblem(node, f"maximumExecutionCount {count} must be between 1 and {MAX_EXECUTIONS}")
@@ -390,7 +390,7 @@ class Timeline:
             inner = Scope(self.scope)
             inner.declare(declarations)
             self._rescope(inner)
-        name = self.scope.text(node, "name") or "maneuver"
+        name = self.scope.name(node, default="maneuver")
         if index < len(group.children):  # a further execution of the maneuver group: the same element
             maneuver = group.children[index]
         else:
@@ -423,7 +423,7 @@ class Timeline:
               skippable: bool) -> list["Execution"]:  # fmt: skip
         """An Event, its actions, once per execution: ``maximumExecutionCount`` N gives N copies, each after the
         one before is over, each waiting for the StartTrigger again (8.4.2.1). Returns this copy's executions."""
-        name = self.scope.text(node, "name") or "event"
+        name = self.scope.name(node, default="event")
         count = self.scope.integer(node, "maximumExecutionCount", 1)
         if not 1 <= count <= MAX_EXECUTIONS:
             raise XmlProblem(node, f"maximumExecutionCount {count} must be between 1 and {MAX_EXECUTIONS}")
@@ -459,7 +459,7 @@ class Timeline:
                 begin, skip, branches = go["id"], skipped["id"], [go, skipped]
             these: list[str] = []
             for k, action in enumerate(node.all("Action")):
-                aname = self.scope.text(action, "name") or "action"
+                aname = self.scope.name(action, default="action")
                 if k not in elements:
                     elements[k] = Element("action", aname, "", action, event)
                     event.children.append(elements[k])

@@ -420,3 +420,21 @@ def test_a_name_written_like_an_expression_is_a_name(tmp_path):
     assert next(e for e in doc["execute"] if e["id"] == "Near")["when"] == "Ego.speed > 15"
     assert problems(write(tmp_path, scenario(BOTH, story.replace('"$EventName"', '"$Nobody"')).replace("<ParameterDeclarations/>", declared)))[0].endswith(
         "unknown parameter '$Nobody' (declared: EventName, V)")
+
+
+def test_an_environment_from_a_catalog_is_read_and_its_friction_checked_with_its_parameters(tmp_path):
+    (tmp_path / "envs").mkdir()
+    (tmp_path / "envs" / "e.xosc").write_text(f"""<?xml version="1.0" encoding="utf-8"?><OpenSCENARIO>
+  <FileHeader revMajor="1" revMinor="3" date="2024-01-01T00:00:00" description="c" author="me"/>
+  <Catalog name="Envs">{WEATHER.format(name="wet", fog="500", friction="$Mu").replace(
+        '<TimeOfDay', '<ParameterDeclarations><ParameterDeclaration name="Mu" parameterType="double" value="1"/></ParameterDeclarations><TimeOfDay')}
+  </Catalog></OpenSCENARIO>""")
+    locations = '<CatalogLocations><EnvironmentCatalog><Directory path="envs"/></EnvironmentCatalog></CatalogLocations>'
+    reference = ('<GlobalAction><EnvironmentAction><CatalogReference catalogName="Envs" entryName="wet">{}</CatalogReference>'
+                 '</EnvironmentAction></GlobalAction>')  # fmt: skip
+    text = scenario(reference.format("") + BOTH).replace("<CatalogLocations/>", locations)
+    assert list(read_openscenario(write(tmp_path, text))["system"]["entities"]) == ["Ego", "Lead"]
+    icy = '<ParameterAssignments><ParameterAssignment parameterRef="Mu" value="0.3"/></ParameterAssignments>'
+    assert problems(write(tmp_path, scenario(reference.format(icy) + BOTH).replace("<CatalogLocations/>", locations))) == [
+        f"/OpenSCENARIO/Catalog[@name='Envs']/Environment[@name='wet']/RoadCondition: {tmp_path / 'envs' / 'e.xosc'}: frictionScaleFactor 0.3 is not supported: "
+        "SUMO's vehicles brake and accelerate as on a dry road (only 1 is, which changes nothing)"]

@@ -438,3 +438,15 @@ def test_an_environment_from_a_catalog_is_read_and_its_friction_checked_with_its
     assert problems(write(tmp_path, scenario(reference.format(icy) + BOTH).replace("<CatalogLocations/>", locations))) == [
         f"/OpenSCENARIO/Catalog[@name='Envs']/Environment[@name='wet']/RoadCondition: {tmp_path / 'envs' / 'e.xosc'}: frictionScaleFactor 0.3 is not supported: "
         "SUMO's vehicles brake and accelerate as on a dry road (only 1 is, which changes nothing)"]
+
+
+def test_an_event_whose_condition_group_needs_an_edge_starts_on_the_tick_the_group_holds(tmp_path):
+    # ASAM's SimpleOvertake: "Turn right" waits for a rising RelativeDistanceCondition AND a time condition.
+    # The rising condition is a latch entry; the event started one tick after the latch was set (it was
+    # ticked before its latch). Here the group holds at 0.5 s (time > 0.45 rising, and time > 0.2).
+    rising = at(0.45).replace('conditionEdge="none"', 'conditionEdge="rising"').replace('rule="greaterOrEqual"', 'rule="greaterThan"')
+    group = rising.replace("</ConditionGroup>", '''<Condition name="u" delay="0" conditionEdge="none"><ByValueCondition>
+      <SimulationTimeCondition value="0.2" rule="greaterThan"/></ByValueCondition></Condition></ConditionGroup>''')
+    report = run(tmp_path, scenario(BOTH.replace('ds="40"', 'ds="200"'), events(("Both", "parallel", group, linear(2))), stop="1"))
+    start = {e["id"]: e["start"] for e in report["execute"]}
+    assert start["Both-t"] == pytest.approx(0.5) and start["Both"] == pytest.approx(0.5) and start["BothA"] == pytest.approx(0.5)

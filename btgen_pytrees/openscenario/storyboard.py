@@ -257,6 +257,10 @@ class Timeline:
                            after, **_keys(c.expect, c.edge, c.delay))  # fmt: skip
                 parts.append(latch)
             terms.append(f"({' && '.join(parts)})" if len(parts) > 1 and len(groups) > 1 else " && ".join(parts))
+        mine = next((x for x in self.entries if x["id"] == owner), None)
+        if mine is not None and self.entries[-1] is not mine:  # after its latches: it reads them on the tick they are set
+            self.entries.remove(mine)
+            self.entries.append(mine)
         return _keys(" || ".join(terms), "none", 0)
 
     # -- the storyboard --------------------------------------------------------------------------

@@ -388,14 +388,6 @@ class Controlled(py_trees.decorators.Decorator, Node):
         """(Its :meth:`tick` decides; py_trees' ``Decorator`` asks every decorator for one.)"""
         return self.decorated.status
 
-    def _fired(self, now: float) -> StopCondition | None:
-        """The first stop due now (every condition evaluated: each keeps its own edge and delay)."""
-        fired = None
-        for stop, condition in zip(self.stops, self.conditions):
-            if condition.due(self.env, now, self.client) and fired is None:
-                fired = stop
-        return fired
-
     @ends_with_itself
     def tick(self) -> typing.Iterator[py_trees.behaviour.Behaviour]:
         if self.status != _RUNNING:

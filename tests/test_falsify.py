@@ -8,7 +8,6 @@ optional component (the ``search`` extra, SUMO, distributed) is absent.
 
 from __future__ import annotations
 
-import copy
 import json
 import logging
 import math

@@ -23,7 +23,7 @@ from typing import Any
 import py_trees
 import pytest
 from browser import chromium, chromium_present
-from helpers import case, crit, entry
+from helpers import case, entry
 
 import btgen_pytrees
 from btgen_pytrees.cli import main

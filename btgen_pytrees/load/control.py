@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import replace
-from typing import Any, Iterable, Mapping
+from typing import Any, Mapping
 
 from ..errors import PathPart
 from ..expressions import Expression, ExpressionError, parse

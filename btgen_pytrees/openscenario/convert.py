@@ -29,7 +29,7 @@ import xml.parsers.expat
 from typing import Any, Callable, Iterator, Mapping
 
 from ..errors import InvalidTestCase, Problem
-from .distributions import Axis, Distribution, parse_distribution
+from .distributions import Distribution, parse_distribution
 from .oracle import Sidecar, read_sidecar
 from .parameters import Scope, convert_value
 from .scenario import Options, convert_scenario, header

@@ -54,6 +54,7 @@ if __package__ in (None, ""):  # run as a file
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from btgen_pytrees.falsify import Search, Settings, Space  # noqa: E402
+from btgen_pytrees.falsify.cases import signals_of  # noqa: E402
 from btgen_pytrees.falsify.jobs import timed  # noqa: E402
 from btgen_pytrees.falsify.margins import groups_of, row_margins  # noqa: E402
 from btgen_pytrees.leaves import default_registry  # noqa: E402
@@ -250,7 +251,7 @@ def search(requirement: str, method: str, seed: int, budget: int) -> Search:
     sweep = sweep_of(requirement)
     registry = default_registry()
     register(registry)
-    space = Space.of(sweep.variations)
+    space = Space.of(sweep.variations, signals_of(sweep))
     groups = groups_of(validate(sweep.document(sweep.defaults), sweep.source, registry))
 
     def evaluate(points: list[dict[str, Any]]) -> list[dict[str, Any]]:

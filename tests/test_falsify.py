@@ -1363,3 +1363,64 @@ def test_past_ten_parameters_a_quadratic_that_fails_its_check_sits_out_batches(m
     passed = sum(calls)
     searched(lambda x: 0.1 + sum((u - 0.4) ** 2 for u in x))
     assert sum(calls) > max(20, 3 * passed)  # a bowl: the check passes, the model is fitted again and again
+
+
+def _signal_case() -> dict[str, Any]:
+    """Two input signals given by ``profile`` points (u: 8 values, one a number; w: 3, one used twice), and a
+    parameter that is no signal's (k, the criterion's threshold; the criterion never fails, so a search runs
+    its whole start)."""
+    u = [[i, f"$u{i}"] for i in range(8)] + [[8, 0.5]]
+    w = [[0, "$w0"], [4, "$w1"], [6, "$w2"], [8, "$w2"]]
+    names = [f"u{i}" for i in range(8)] + ["w0", "w1", "w2", "k"]
+    return {"name": "signals", "tick": 0.1, "timeout": 8, "signals": {"u": 0, "w": 0},
+            "parameters": {n: 0.5 for n in names},
+            "variations": {n: {"from": 0, "to": 1, "step": 0.01} for n in names},
+            "execute": [{"id": "U", "kind": "behavior", "action": "profile", "params": {"signal": "u", "points": u}},
+                        {"id": "W", "kind": "behavior", "action": "profile", "params": {"signal": "w", "points": w, "shape": "linear"}}],
+            "oracle": {"criteria": [{"id": "F1", "type": "record", "expect": "u + w <= 2 + $k"}]}}  # fmt: skip
+
+
+def test_a_profiles_searched_values_are_an_input_signal_of_the_space_in_time_order() -> None:
+    """``signals_of`` reads each ``profile``'s points whose value is a whole ``$name`` in the points' order (a
+    number among them is not searched; a name used twice is one value); the space keeps a signal's searched
+    continuous dimensions (a name in an earlier signal, or not searched, left out; one value left is no signal)."""
+    from btgen_pytrees.falsify.cases import signals_of
+    from btgen_pytrees.falsify.space import Space
+    from btgen_pytrees.load.template import Sweep
+
+    data = _signal_case()
+    sweep = Sweep(data, "signals.json")
+    assert signals_of(sweep) == (tuple(f"u{i}" for i in range(8)), ("w0", "w1", "w2"))
+    space = Space.of(sweep.variations, signals_of(sweep))
+    index = {d.name: i for i, d in enumerate(space.dimensions)}
+    assert space.signals == (tuple(index[f"u{i}"] for i in range(8)), (index["w0"], index["w1"], index["w2"]))
+    assert Space.of(sweep.variations, [["u1", "u0", "w0"], ["w0", "w1", "zz"], ["w2"]]).signals == (
+        (index["u1"], index["u0"], index["w0"]),)  # w0 taken, zz not searched: w1 alone is no signal
+    assert Space.of(sweep.variations).signals == ()
+
+
+def test_the_space_filling_runs_are_shaped_along_input_signals_and_the_sobol_method_is_not(tmp_path: pathlib.Path) -> None:
+    """falsify's start (after the box's two corners) holds each signal in 1 to 4 pieces, each at the low end,
+    the high end or a value between, while the parameter no signal has takes the Sobol sequence's values; the
+    same seed gives the same runs; the ``sobol`` method's runs are the sequence unshaped."""
+    path = write(tmp_path, _signal_case())
+    space_names = {"u": [f"u{i}" for i in range(8)], "w": ["w0", "w1", "w2"]}
+
+    def start(method: str, name: str) -> list[dict[str, float]]:
+        report = tmp_path / f"{name}.json"
+        code = main(["falsify", path, "--budget", "48", "--method", method, "--seed", "3", "--jobs", "1", "--quiet",
+                     "--json", str(report), "--out-dir", str(tmp_path / name)])  # fmt: skip
+        assert code in (0, 1)
+        return [r["parameters"] for r in json.loads(report.read_text())["runs"] if r["phase"] == "start"]
+
+    shaped = start("auto", "a")[2:]
+    assert len(shaped) >= 5 and shaped == start("auto", "b")[2:]
+    for run in shaped:
+        for names in space_names.values():
+            values = [run[n] for n in names]
+            pieces = [v for j, v in enumerate(values) if j == 0 or v != values[j - 1]]
+            assert 1 <= len(pieces) <= 4, values
+    assert any(run[n] in (0.0, 1.0) for run in shaped for n in space_names["u"])
+    assert len({run["k"] for run in shaped}) == len(shaped)  # no signal's: spread as the sequence spreads it
+    sobol = start("sobol", "c")
+    assert all(len(set(run[n] for n in space_names["u"])) == 8 for run in sobol)

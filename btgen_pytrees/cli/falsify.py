@@ -17,7 +17,7 @@ import signal
 from typing import Any
 
 from ..errors import ExitCode, InvalidTestCase, Problem, UsageError
-from ..falsify.cases import concrete_case, counterexample_files, evaluator, settings_of
+from ..falsify.cases import concrete_case, counterexample_files, evaluator, settings_of, signals_of
 from ..falsify.margins import groups_of
 from ..falsify.plot import search_plot
 from ..falsify.report import report_data, table, to_json
@@ -134,7 +134,7 @@ def cmd_falsify(args: argparse.Namespace) -> int:
             raise UsageError(str(problem)) from None
         if importlib.util.find_spec("matplotlib") is None:
             raise UsageError("--plot needs matplotlib: pip install -e '.[plot]'")
-    space = Space.of(sweep.variations)
+    space = Space.of(sweep.variations, signals_of(sweep))
     known = registry(args)
     groups = groups_of(validate(concrete_case(sweep, {}), sweep.source, known))
     executor = make_executor(args, keep=(keep_simulations, release_simulations))  # each worker keeps its SUMO open

@@ -30,7 +30,7 @@ from .jobs import job_probe
 from .margins import row_margins
 from .search import Settings
 
-__all__ = ["settings_of", "concrete_case", "evaluator", "counterexample_files"]
+__all__ = ["settings_of", "signals_of", "concrete_case", "evaluator", "counterexample_files"]
 
 
 _COUNTS = ("budget", "seed", "batch", "start")
@@ -70,6 +70,24 @@ def settings_of(block: Mapping[str, Any] | None, options: Mapping[str, Any], cri
     given = {k: (int(v) if isinstance(v, float) and k in _COUNTS else v) for k, v in pick.items() if v is not None}
     given.setdefault("batch", max(1, workers))
     return Settings(scale=dict(block.get("scale", {})), **given)
+
+
+def signals_of(sweep: Sweep) -> tuple[tuple[str, ...], ...]:
+    """The case's input signals as the search sees them: for each ``profile`` entry of ``execute``, the
+    parameters its points' values are (a point's value written as a whole ``$name``), in the points' order -
+    which is time order (docs/format.md, ``profile``). A value written otherwise (a number, ``$a`` inside a
+    text) is not a searched value of the signal."""
+    execute = sweep.template.get("execute")
+    entries = execute if isinstance(execute, list) else []
+    found: dict[int, list[tuple[int, str]]] = {}
+    for site in sweep.sites:
+        path = site.path
+        if not (site.whole and len(path) == 6 and path[0] == "execute" and path[2:4] == ("params", "points") and path[5] == 1):
+            continue
+        i, j = path[1], path[4]
+        if isinstance(i, int) and isinstance(j, int) and isinstance(entries[i], dict) and entries[i].get("action") == "profile":
+            found.setdefault(i, []).append((j, site.text[1:]))
+    return tuple(tuple(dict.fromkeys(name for _, name in sorted(points))) for _, points in sorted(found.items()))
 
 
 def concrete_case(sweep: Sweep, values: Mapping[str, Any], where: str | None = None) -> dict[str, Any]:

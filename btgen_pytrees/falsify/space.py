@@ -142,9 +142,17 @@ class Space:
     """The searched parameters, in the ``variations`` block's order."""
 
     dimensions: tuple[Dimension, ...]
+    signals: tuple[tuple[int, ...], ...] = ()
+    """The input signals among the dimensions: each the indices of one ``profile``'s control-point values, in
+    time order (continuous dimensions only; a dimension in one signal at most). The space-filling stage draws
+    every other point *shaped* along them (:mod:`.sampler`): a uniform point is a signal that jumps at every
+    control point, which no pedal or set-point does."""
 
     @classmethod
-    def of(cls, variations: Variations) -> "Space":
+    def of(cls, variations: Variations, signals: Sequence[Sequence[str]] = ()) -> "Space":
+        """The box of *variations*; *signals*: parameter names, each sequence one input signal's values in time
+        order (:func:`~.cases.signals_of`); names not searched or already in a signal are left out, and a
+        signal needs two of its values searched."""
         dims = []
         for axis in variations.axes:
             spec = axis.spec
@@ -158,7 +166,15 @@ class Space:
             else:
                 mu, sigma = (float(x) for x in spec["normal"])
                 dims.append(Dimension(axis.name, "normal", mu - 4 * sigma, mu + 4 * sigma, sigma / 10, mu=mu, sigma=sigma))
-        return cls(tuple(dims))
+        index = {d.name: i for i, d in enumerate(dims) if d.continuous}
+        groups: list[tuple[int, ...]] = []
+        taken: set[int] = set()
+        for names in signals:
+            group = tuple(dict.fromkeys(index[n] for n in names if n in index and index[n] not in taken))
+            if len(group) >= 2:
+                groups.append(group)
+                taken.update(group)
+        return cls(tuple(dims), tuple(groups))
 
     @property
     def names(self) -> tuple[str, ...]:

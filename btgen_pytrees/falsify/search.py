@@ -13,8 +13,10 @@ A run *fails* when its verdict is not ``pass`` (``fail``, ``timeout`` or
 2. **search** - the method's sampler, batch by batch, until a run fails.
 3. **shrink** - along the segment from the nominal point (the sweep's
    ``parameters``) to the failure, bisected until the pass/fail pair is within
-   the resolution of every parameter: the failing end is the counterexample
-   closest to the nominal point.
+   the resolution of every parameter; then along each parameter towards its
+   nominal value, then along the failing region's boundary (the objective's
+   local plane): the failing end is the counterexample closest to the nominal
+   point.
 4. **bound** - from the shrunk counterexample along each continuous parameter
    towards a passing value (the nominal one, else a box edge), bisected to its
    resolution: boundary points.
@@ -39,6 +41,7 @@ from ..load.variations import Value
 from .margins import fit_scales, objective
 from .sampler import Sampler, resolve_method
 from .space import Points, Space
+from .surrogate import boundary_projection
 
 __all__ = ["Settings", "Run", "Cluster", "Boundary", "Search", "RADIUS", "FAILING"]
 
@@ -48,6 +51,16 @@ RADIUS = 0.1
 NEARER_ROUNDS = 1
 """Rounds of the shrink's coordinate-by-coordinate moves towards the nominal point (one reaches a box-shaped
 region's nearest point; each costs a bisection per parameter, about as many runs as the segment's)."""
+
+BOUNDARY_ROUNDS = 4
+"""Rounds of the shrink's moves along the failing region's boundary (:meth:`Search._along_boundary`), each a
+bisection: they end early when a round brings the counterexample no nearer."""
+
+PROBE = 4
+STEPS = (1.0, 0.5, 0.25, 0.125)
+"""A boundary round's steps from the nearest failure towards the plane's nearest point, tried in turn until
+one brings the counterexample nearer."""
+"""A boundary round's probe along each parameter: this many resolutions from the nearest failure."""
 
 FAILING = frozenset(("fail", "timeout", "error"))
 _NONE: Mapping[str, float | None] = {}
@@ -393,9 +406,11 @@ class Search:
         """The cluster's failure nearest to the nominal point, within the declared resolution: along the
         segment from the nominal point to the failure first; then coordinate by coordinate - each continuous
         parameter moved from the nearest failure so far towards its nominal value, the others held
-        (:data:`NEARER_ROUNDS` rounds, or until a round moves nothing). The segment alone finds only the nearest failure on its line (on a hidden
-        4-parameter box region, 0.93-1.09 from the nominal point where the region's nearest point is 0.89);
-        a box-shaped region's nearest point is reached coordinate by coordinate in one round."""
+        (:data:`NEARER_ROUNDS` rounds, or until a round moves nothing); then along the region's boundary
+        (:data:`BOUNDARY_ROUNDS` rounds: :meth:`_along_boundary`, :meth:`_towards`). The segment alone finds
+        only the nearest failure on its line (on a hidden 4-parameter box region, 0.93-1.09 from the nominal
+        point where the region's nearest point is 0.89); a box-shaped region's nearest point is reached
+        coordinate by coordinate in one round, a ball's only along its boundary."""
         fail = self.runs[cluster.shrunk]
         origin = [n if n is not None else f for n, f in zip(self.nominal, fail.unit)]
         for d, i in zip(self.space.dimensions, range(len(origin))):
@@ -414,6 +429,64 @@ class Search:
                 moved = moved or cluster.shrunk != best.index
             if not moved:
                 break
+        for _ in range(BOUNDARY_ROUNDS):
+            best = self.runs[cluster.shrunk]
+            cont = [i for i, d in enumerate(self.space.dimensions) if d.continuous and self.nominal[i] is not None]
+            if best.objective is None or not cont or all(abs(best.unit[i] - self.nominal[i]) <= self.space.dimensions[i].unit_resolution(best.unit[i]) + 1e-12 for i in cont):  # type: ignore[operator]
+                break  # nothing to go by, or nothing nearer: the failure is at the nominal point
+            probes = [self._probe(best.unit, i) for i in cont]
+            runs = yield probes
+            for r in runs:
+                if r.failed:
+                    self._place(r, cluster)
+            found = self._along_boundary(best, cont, runs)
+            if found is None:
+                break
+            for step in STEPS:  # the plane's point, then nearer to the failure: a boundary that curves away
+                target, inward = self._towards(best.unit, cont, *found, step)
+                if self._resolved(target, best.unit):
+                    break
+                (deep,) = yield [inward]
+                if deep.failed:
+                    self._place(deep, cluster)
+                    yield from self._segment(cluster, target, deep, None)
+                    if self._from_nominal[cluster.shrunk] < self._from_nominal[best.index] - 1e-9:
+                        break
+            if self._from_nominal[cluster.shrunk] >= self._from_nominal[best.index] - 1e-9:
+                break
+
+    def _probe(self, unit: Sequence[float], i: int) -> list[float]:
+        """*unit* moved along parameter *i* by :data:`PROBE` resolutions (at least 0.005 of its range) towards
+        its nominal value (away from it where the nominal value is *unit*'s: the other way then)."""
+        d = self.space.dimensions[i]
+        h = max(PROBE * d.unit_resolution(unit[i]), 0.005)
+        step = h if (self.nominal[i] or 0.0) > unit[i] or unit[i] - h < 0.0 else -h
+        out = list(unit)
+        out[i] = min(1.0, max(0.0, unit[i] + step))
+        return out
+
+    def _along_boundary(self, fail: Run, cont: Sequence[int], probes: Sequence[Run]) -> tuple[list[float], list[float]] | None:
+        """Where the failing region's boundary is nearest to the nominal point as the objective's local linear
+        model draws it, and the plane's unit normal (:func:`~.surrogate.boundary_projection`: its plane
+        through *fail* and one probe along each parameter; coordinates of the parameters *cont*). None where
+        a probe has no objective or the objective is flat."""
+        near = [([r.unit[i] for i in cont], r.objective) for r in (fail, *probes)]
+        if any(y is None for _, y in near):
+            return None
+        return boundary_projection(near, [fail.unit[i] for i in cont], [self.nominal[i] for i in cont])  # type: ignore[arg-type, misc]
+
+    def _towards(self, fail: Sequence[float], cont: Sequence[int], point: Sequence[float], normal: Sequence[float],
+                 step: float) -> tuple[list[float], list[float]]:  # fmt: skip
+        """The way *step* of *fail* to the plane's *point*, and a point as far again from there into the
+        region along the plane's *normal*: the boundary between the two is nearer to the nominal point than
+        *fail* (the plane's point passes where the region curves away from the plane - a ball seen from
+        outside - so the step shrinks until the point inside fails)."""
+        target, inward = list(fail), list(fail)
+        depth = step * math.dist(point, [fail[i] for i in cont])
+        for i, u, g in zip(cont, point, normal):
+            target[i] = fail[i] + step * (u - fail[i])
+            inward[i] = min(1.0, max(0.0, target[i] - depth * g))
+        return target, inward
 
     def _segment(self, cluster: Cluster, origin: Sequence[float], fail: Run,
                  along: str | None) -> Generator[list[list[float]], list[Run], None]:  # fmt: skip

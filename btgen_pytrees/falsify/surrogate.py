@@ -53,7 +53,7 @@ from typing import Any, Sequence
 
 from .qmc import Draws
 
-__all__ = ["Model", "quadratic_minimum", "KEEP", "CANDIDATES", "REFIT", "TRUST", "FULL_TERMS", "one_thread"]
+__all__ = ["Model", "quadratic_minimum", "boundary_projection", "KEEP", "CANDIDATES", "REFIT", "TRUST", "FULL_TERMS", "one_thread"]
 
 KEEP = 32
 """Most runs the model is fitted to."""
@@ -340,6 +340,29 @@ def _pairs(d: int, full: bool) -> tuple[Any, Any]:
     import numpy as np
 
     return np.triu_indices(d) if full else (np.arange(d), np.arange(d))
+
+
+def boundary_projection(near: Sequence[tuple[Sequence[float], float]], fail: Sequence[float],
+                        nominal: Sequence[float]) -> tuple[list[float], list[float]] | None:  # fmt: skip
+    """The nominal point projected onto the zero of a plane fitted (least squares) to the objectives of the
+    runs *near* a failing point *fail* (unit points and objectives), clipped to the box, and the plane's
+    unit normal pointing to higher objectives: where the boundary of the failing region nearest to
+    *nominal* lies if the objective is linear there, and which way the region lies from it. None with
+    fewer runs than the plane's terms, runs that do not span every direction, or a flat objective."""
+    np, _, _ = _libraries()
+    d = len(fail)
+    if len(near) < d + 1:
+        return None
+    f = np.array(fail, dtype=float)
+    F = np.concatenate([np.ones((len(near), 1)), np.array([x for x, _ in near], dtype=float) - f], axis=1)
+    coef, _, rank, _ = np.linalg.lstsq(F, np.array([y for _, y in near], dtype=float), rcond=None)
+    g = coef[1:]
+    norm = float(g @ g)
+    if rank < d + 1 or not norm > 0.0:
+        return None
+    n = np.array(nominal, dtype=float)
+    point = np.clip(n - float(coef[0] + g @ (n - f)) / norm * g, 0.0, 1.0)
+    return [float(u) for u in point], [float(u) for u in g / math.sqrt(norm)]
 
 
 def quadratic_minimum(told: Sequence[tuple[Sequence[float], float]], d: int, draws: Draws, check: bool = False) -> Any:

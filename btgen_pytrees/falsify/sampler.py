@@ -7,7 +7,10 @@ once per process and dimension) randomised by a *digital shift* drawn from the
 seed (every point's bits XORed with the same random bits: the points stay a
 net, each search's are elsewhere), so the first runs cover the box evenly and
 give the objective's scale (``gp``'s start runs the box's two opposite corners
-first, when it has at least 4 runs). Then:
+first, when it has at least 4 runs); a box with input signals
+(:attr:`~.space.Space.signals`) gets their values *shaped* - held pieces - in
+every space-filling point but the ``sobol`` method's (:meth:`Sampler._shaped`).
+Then:
 
 * ``gp`` - a Gaussian-process model of the objective (:mod:`.surrogate`),
   refitted after every batch; each batch is the quadratic model's minimum

@@ -449,7 +449,7 @@ class Search:
                 (deep,) = yield [inward]
                 if deep.failed:
                     self._place(deep, cluster)
-                    yield from self._segment(cluster, target, deep, None)
+                    yield from self._segment(cluster, target, deep, None, bounded=False)
                     if self._from_nominal[cluster.shrunk] < self._from_nominal[best.index] - 1e-9:
                         break
             if self._from_nominal[cluster.shrunk] >= self._from_nominal[best.index] - 1e-9:
@@ -488,12 +488,13 @@ class Search:
             inward[i] = min(1.0, max(0.0, target[i] - depth * g))
         return target, inward
 
-    def _segment(self, cluster: Cluster, origin: Sequence[float], fail: Run,
-                 along: str | None) -> Generator[list[list[float]], list[Run], None]:  # fmt: skip
+    def _segment(self, cluster: Cluster, origin: Sequence[float], fail: Run, along: str | None,
+                 bounded: bool = True) -> Generator[list[list[float]], list[Run], None]:  # fmt: skip
         """k-section of the segment from *origin* to the failing run *fail* until the pass/fail pair is within
         the resolution of every parameter (the first round includes *origin* itself): its failing end is
         the segment's failure nearest to *origin*; the pair is a boundary point (*along*: the parameter the
-        segment follows, None: towards the nominal point)."""
+        segment follows, None: towards the nominal point; not *bounded*: a boundary round's segment, whose
+        direction is neither, is no boundary point of the report)."""
 
         def at(t: float) -> list[float]:
             return [o + t * (f - o) if d.continuous else f for d, o, f in zip(self.space.dimensions, origin, fail.unit)]
@@ -523,7 +524,7 @@ class Search:
             lo, hi = new_lo, new_hi
             if hi == 0.0:
                 break
-        if pass_run is not None and self._cluster_of.get(hi_run.index) is cluster:
+        if bounded and pass_run is not None and self._cluster_of.get(hi_run.index) is cluster:
             self._bounded(cluster, Boundary(along, pass_run.index, hi_run.index))
 
     def _bound(self, cluster: Cluster) -> Generator[list[list[float]], list[Run], None]:

@@ -1448,12 +1448,12 @@ def test_the_space_filling_runs_are_shaped_along_input_signals_and_the_sobol_met
 
     shaped = start("auto", "a")[2:]
     assert len(shaped) >= 5 and shaped == start("auto", "b")[2:]
-    for run in shaped:
+    for point in shaped:
         for names in space_names.values():
-            values = [run[n] for n in names]
+            values = [point[n] for n in names]
             pieces = [v for j, v in enumerate(values) if j == 0 or v != values[j - 1]]
             assert 1 <= len(pieces) <= 4, values
-    assert any(run[n] in (0.0, 1.0) for run in shaped for n in space_names["u"])
-    assert len({run["k"] for run in shaped}) == len(shaped)  # no signal's: spread as the sequence spreads it
+    assert any(point[n] in (0.0, 1.0) for point in shaped for n in space_names["u"])
+    assert len({point["k"] for point in shaped}) == len(shaped)  # no signal's: spread as the sequence spreads it
     sobol = start("sobol", "c")
-    assert all(len(set(run[n] for n in space_names["u"])) == 8 for run in sobol)
+    assert all(len(set(point[n] for n in space_names["u"])) == 8 for point in sobol)

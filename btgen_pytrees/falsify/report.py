@@ -315,7 +315,7 @@ def table(data: Mapping[str, Any]) -> str:
         lines.append(f"  this search:     first failure at run {data['first_failure']}")
         lines.append(f"  uniform random:  first failure expected at run {_v(ur['expected_runs'])}, "
                      f"{_v(100 * ur['chance_within_budget'] if ur['chance_within_budget'] is not None else None)} % chance within the budget "
-                     f"(failing share estimated {_v(100 * share if share is not None else None)} % of the box)")  # fmt: skip
+                     f"(failing share taken as the clusters' boxes: {_v(100 * share if share is not None else None)} % of the box)")  # fmt: skip
         g = base["grid"]
         where = f"first failure at point {g['first_failure']}" if g["first_failure"] else "steps over every failure box"
         lines.append(f"  grid ({g['points']} points at the declared resolution): {where}")

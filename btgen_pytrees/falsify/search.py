@@ -57,10 +57,11 @@ BOUNDARY_ROUNDS = 4
 bisection: they end early when a round brings the counterexample no nearer."""
 
 PROBE = 4
+"""A boundary round's probe along each parameter: this many resolutions from the nearest failure."""
+
 STEPS = (1.0, 0.5, 0.25, 0.125)
 """A boundary round's steps from the nearest failure towards the plane's nearest point, tried in turn until
 one brings the counterexample nearer."""
-"""A boundary round's probe along each parameter: this many resolutions from the nearest failure."""
 
 FAILING = frozenset(("fail", "timeout", "error"))
 _NONE: Mapping[str, float | None] = {}
@@ -399,8 +400,11 @@ class Search:
                 pass
         cluster.refined = True
 
-    def _resolved(self, a: Sequence[float], b: Sequence[float]) -> bool:
-        return all(abs(x - y) <= d.unit_resolution(x) + 1e-12 for d, x, y in zip(self.space.dimensions, a, b) if d.continuous)
+    def _resolved(self, a: Sequence[float], b: Sequence[float], where: Sequence[int] | None = None) -> bool:
+        """Whether *a* and *b* are within the resolution of every continuous parameter (*where*: the
+        parameters their coordinates are, in order; None: every parameter's)."""
+        dims = self.space.dimensions if where is None else [self.space.dimensions[i] for i in where]
+        return all(abs(x - y) <= d.unit_resolution(x) + 1e-12 for d, x, y in zip(dims, a, b) if d.continuous)
 
     def _shrink(self, cluster: Cluster) -> Generator[list[list[float]], list[Run], None]:
         """The cluster's failure nearest to the nominal point, within the declared resolution: along the
@@ -432,7 +436,8 @@ class Search:
         for _ in range(BOUNDARY_ROUNDS):
             best = self.runs[cluster.shrunk]
             cont = [i for i, d in enumerate(self.space.dimensions) if d.continuous and self.nominal[i] is not None]
-            if best.objective is None or not cont or all(abs(best.unit[i] - self.nominal[i]) <= self.space.dimensions[i].unit_resolution(best.unit[i]) + 1e-12 for i in cont):  # type: ignore[operator]
+            at_nominal = self._resolved([best.unit[i] for i in cont], [self.nominal[i] for i in cont], cont)  # type: ignore[misc]
+            if best.objective is None or not cont or at_nominal:
                 break  # nothing to go by, or nothing nearer: the failure is at the nominal point
             probes = [self._probe(best.unit, i) for i in cont]
             runs = yield probes
@@ -457,7 +462,7 @@ class Search:
 
     def _probe(self, unit: Sequence[float], i: int) -> list[float]:
         """*unit* moved along parameter *i* by :data:`PROBE` resolutions (at least 0.005 of its range) towards
-        its nominal value (away from it where the nominal value is *unit*'s: the other way then)."""
+        its nominal value (up from the box's low edge where they are equal)."""
         d = self.space.dimensions[i]
         h = max(PROBE * d.unit_resolution(unit[i]), 0.005)
         step = h if (self.nominal[i] or 0.0) > unit[i] or unit[i] - h < 0.0 else -h

@@ -1457,3 +1457,80 @@ def test_the_space_filling_runs_are_shaped_along_input_signals_and_the_sobol_met
     assert len({point["k"] for point in shaped}) == len(shaped)  # no signal's: spread as the sequence spreads it
     sobol = start("sobol", "c")
     assert all(len(set(point[n] for n in space_names["u"])) == 8 for point in sobol)
+
+
+def _two_value_signal(**changes: Any) -> dict[str, Any]:
+    """One input signal of two values (a, b) and a bound on it: the failing region is an L of two slabs."""
+    data = {"name": "sig2", "signals": {"u": 0}, "tick": 0.1, "timeout": 3, "parameters": {"a": 0, "b": 0},
+            "variations": {"a": {"from": 0, "to": 1, "step": 0.01}, "b": {"from": 0, "to": 1, "step": 0.01}},
+            "execute": [{"id": "P", "kind": "behavior", "action": "profile", "params": {"signal": "u", "points": [[0, "$a"], [1, "$b"]]}}],
+            "oracle": {"criteria": [{"id": "R1", "type": "record", "expect": "u <= 0.9"}]}}  # fmt: skip
+    data.update(changes)
+    return data
+
+
+def test_no_shaped_point_is_drawn_twice_so_a_short_signal_keeps_its_gradient(tmp_path: pathlib.Path) -> None:
+    """A signal of two values has few shapes of held ends: drawn at random they repeated the start's corners
+    (seed 3's start was (0,0), (1,1), (0,0), (1,1)), and held at its ends it mostly failed the bound, so the
+    start's margins showed no gradient - the model never ran on 3 of 6 seeds. Now no shaped point repeats
+    (a signal of 4 values: 40 space-filling points, all new, neither corner again) and a signal of fewer
+    than 4 values is not shaped: every seed grades the criterion."""
+    from btgen_pytrees.falsify.sampler import Sampler
+    from btgen_pytrees.falsify.space import Dimension, Space
+
+    space = Space(tuple(Dimension(n, "range", 0.0, 1.0, 0.01) for n in "abcd"), ((0, 1, 2, 3),))
+    sampler = Sampler(space, "gp", seed=3, start=42, batch=1)
+    points = []
+    for _ in range(42):
+        points += [tuple(p) for p in sampler.ask(1)]
+        sampler.tell([0.0])
+    assert len(set(points)) == 42 and points[:2] == [(0.0,) * 4, (1.0,) * 4]
+    path = write(tmp_path, _two_value_signal())
+    for seed in range(6):
+        report = tmp_path / f"s{seed}.json"
+        main(["falsify", path, "--budget", "40", "--seed", str(seed), "--jobs", "1", "--quiet", "--json", str(report),
+              "--out-dir", str(tmp_path / f"o{seed}")])  # fmt: skip
+        data = json.loads(report.read_text())
+        start = [tuple(r["parameters"].values()) for r in data["runs"] if r["phase"] == "start"]
+        assert data["graded"] == ["R1"] and len(set(start)) == len(start), (seed, start, data["notes"])
+
+
+def test_the_report_says_when_its_failure_boxes_hold_passing_runs(tmp_path: pathlib.Path) -> None:
+    """A bound on a signal fails on an L of two slabs, so the cluster's box is the whole box: the failing
+    share and the grid's first point in a box are the box's figures, and passing runs lie in it. The
+    report counts them (JSON and table) instead of calling the grid's first point - one the search ran
+    and saw pass - its first failure."""
+    path = write(tmp_path, _two_value_signal(parameters={"a": 0.95, "b": 0.5}))
+    report = tmp_path / "f.json"
+    done = cli("falsify", path, "--budget", "100", "--seed", "2", "--jobs", "1", "--json", str(report), "--out-dir", str(tmp_path / "o"))
+    assert done.returncode == 1, done.stderr
+    data = json.loads(report.read_text())
+    base = data["baselines"]
+    (box,) = [c["box"] for c in data["clusters"]]
+    inside = [r for r in data["runs"] if r["verdict"] == "pass"
+              and all(box[k][0] - 1e-9 <= v <= box[k][1] + 1e-9 for k, v in r["parameters"].items())]  # fmt: skip
+    assert base["passing_runs_in_boxes"] == len(inside) > 0
+    assert f"the boxes hold {len(inside)} passing runs" in done.stdout and "first failure at point" not in done.stdout
+
+
+def test_a_nominal_value_outside_the_box_is_said_and_distances_are_from_its_nearest_edge(tmp_path: pathlib.Path) -> None:
+    data = island(parameters={"a": 50, "b": 1})
+    report = tmp_path / "f.json"
+    main(["falsify", write(tmp_path, data), "--budget", "30", "--jobs", "1", "--json", str(report), "--out-dir", str(tmp_path / "o")])
+    notes = json.loads(report.read_text())["notes"]
+    assert any(n.startswith("the nominal a=50 lies outside the box (0 to 10)") for n in notes), notes
+
+
+def test_a_scale_too_small_to_divide_by_is_refused(tmp_path: pathlib.Path) -> None:
+    """5e-324 passed the schema's ``> 0`` and made every objective overflow (the search ran blind)."""
+    data = island(search={"scale": {"F1": 5e-324}})
+    done = cli("falsify", write(tmp_path, data), "--budget", "10", "--out-dir", str(tmp_path / "o"))
+    assert done.returncode == 2 and "/search/scale/F1" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_normal_prior_is_in_no_signal() -> None:
+    from btgen_pytrees.falsify.space import Space
+    from btgen_pytrees.load.variations import Variations
+
+    variations = Variations.parse({"a": {"from": 0, "to": 1, "step": 0.1}, "b": {"normal": [0, 1]}, "c": {"uniform": [0, 2]}})
+    assert Space.of(variations, [["a", "b", "c"]]).signals == ((0, 2),)

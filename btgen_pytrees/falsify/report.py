@@ -154,6 +154,17 @@ def _grid_first(space: Space, box: Sequence[Any]) -> int | None:
     return flat + 1
 
 
+def _inside(space: Space, box: Sequence[Any], unit: Sequence[float]) -> bool:
+    """Whether *unit* lies in *box* (:func:`failure_boxes`'s)."""
+    for d, part, u in zip(space.dimensions, box, unit):
+        if d.continuous:
+            if not part[0] - 1e-12 <= u <= part[1] + 1e-12:
+                return False
+        elif int(u) not in part:
+            return False
+    return True
+
+
 def baselines(search: Search) -> dict[str, Any]:
     """Uniform random and the grid at the declared resolution, for the same budget (see the module notes)."""
     space, budget = search.space, search.settings.budget
@@ -166,6 +177,7 @@ def baselines(search: Search) -> dict[str, Any]:
                             for d, u in zip(space.dimensions, r.unit)))  # fmt: skip
         return {
             "failing_share": None,
+            "passing_runs_in_boxes": 0,
             "uniform_random": {"expected_runs": None, "chance_within_budget": None,
                                "missed_share_95": _num(min(1.0, 3.0 / runs)) if runs else None},
             "grid": {"points": grid_points, "first_failure": None, "within_budget": None,
@@ -175,8 +187,10 @@ def baselines(search: Search) -> dict[str, Any]:
     p = union_share(space, boxes)
     firsts = [f for f in (_grid_first(space, b) for b in boxes) if f is not None]
     first = min(firsts) if firsts else None
+    inside = sum(1 for r in search.runs if not r.failed and any(_inside(space, b, r.unit) for b in boxes))
     return {
         "failing_share": _num(p),
+        "passing_runs_in_boxes": inside,
         "uniform_random": {"expected_runs": _num(1.0 / p) if p > 0 else None,
                            "chance_within_budget": _num(1.0 - (1.0 - p) ** budget) if p > 0 else None,
                            "missed_share_95": None},
@@ -317,8 +331,12 @@ def table(data: Mapping[str, Any]) -> str:
                      f"{_v(100 * ur['chance_within_budget'] if ur['chance_within_budget'] is not None else None)} % chance within the budget "
                      f"(failing share taken as the clusters' boxes: {_v(100 * share if share is not None else None)} % of the box)")  # fmt: skip
         g = base["grid"]
-        where = f"first failure at point {g['first_failure']}" if g["first_failure"] else "steps over every failure box"
+        where = f"first point in a failure box: {g['first_failure']}" if g["first_failure"] else "steps over every failure box"
         lines.append(f"  grid ({g['points']} points at the declared resolution): {where}")
+        if base["passing_runs_in_boxes"]:
+            n = base["passing_runs_in_boxes"]
+            lines.append(f"  (the boxes hold {n} passing run{'s' * (n != 1)}: the failing region is smaller than they are, "
+                         "and both figures above are the boxes')")  # fmt: skip
     else:
         g, ur = base["grid"], base["uniform_random"]
         lines.append(f"  covered {g['cells_visited']} of {g['points']} grid cells at the declared resolution "

@@ -73,6 +73,14 @@ GAIN = 0.01
 spread over the start), so a model creeping down a bowl whose bottom passes counts as stalled."""
 SHAPE_CUTS = 3
 """The most changes of a shaped input signal (:meth:`Sampler._shaped`): its pieces are 1 to 4."""
+SHAPE_MIN = 4
+"""The fewest values a signal is shaped with: a signal of two or three values is a small box the model covers by
+itself, and held at its ends it mostly fails a bound on it - a start of 4 runs then had too few passing runs to
+show the criterion's gradient, and the model never ran."""
+SHAPE_TRIES = 8
+"""Draws of a shaped point before the space-filling point goes unshaped: a shape is never drawn twice (nor the
+box's two corners, which the ``gp`` start runs), as a signal of two or three values has few shapes of held
+ends - repeated, they made the start's margins alike and hid a criterion's gradient."""
 RESTART_SIGMA = 0.3
 """The step size of a restart (a new region: wider)."""
 
@@ -168,6 +176,7 @@ class Sampler:
         self._shift = self._draws.shift(len(space.dimensions))
         self._sobol = 0  # Sobol points drawn
         self._shapes = random.Random(f"{seed}/signal shapes")  # the shapes' draws (a string seed: the same in every process)
+        self._shapes_drawn: set[tuple[float, ...]] = {tuple(x) for x in self._extremes}  # no shaped point twice
         self._cma: Any = None
         self._queue: list[list[float]] = []
         self._model = Model(self._draws)
@@ -367,9 +376,17 @@ class Sampler:
         """A space-filling point: the Sobol sequence's next, its input signals' values (where the space has
         them: :attr:`~.space.Space.signals`) shaped along each signal (:meth:`_shaped`) - except for the
         ``sobol`` method, which is the sequence alone (the uniform cover, for a failure only a signal jumping
-        at every control point reaches)."""
+        at every control point reaches). No shaped point is drawn twice (:data:`SHAPE_TRIES`)."""
         point = self._sobol_point()
-        return point if not self.space.signals or self.method == "sobol" else self._shaped(point)
+        if self.method == "sobol" or all(len(signal) < SHAPE_MIN for signal in self.space.signals):
+            return point
+        for _ in range(SHAPE_TRIES):  # a shape drawn before (the box's corners among them) is drawn again
+            shaped = self._shaped(point)
+            key = tuple(shaped)
+            if key not in self._shapes_drawn:
+                self._shapes_drawn.add(key)
+                return shaped
+        return point  # a signal of few values has few shapes: the Sobol point, unshaped
 
     def _shaped(self, point: list[float]) -> list[float]:
         """*point* with each input signal's values replaced by a shape a driver or a set-point makes: 0 to
@@ -382,6 +399,8 @@ class Sampler:
         out = list(point)
         for signal in self.space.signals:
             n = len(signal)
+            if n < SHAPE_MIN:
+                continue
             cuts = sorted(draw.sample(range(1, n), draw.randint(0, min(SHAPE_CUTS, n - 1))))
             for a, b in zip([0, *cuts], [*cuts, n]):
                 u = draw.random()

@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Generator, Mapping, Sequence
 
-from ..load.variations import Value
+from ..load.variations import Value, format_value
 from .margins import fit_scales, objective
 from .sampler import Sampler, resolve_method
 from .space import Points, Space
@@ -202,7 +202,11 @@ class Search:
         self.graded: list[str] | None = None
         self._graded: frozenset[str] | None = None  # the same, for the objective's look-ups
         self.groups = {g: (relation, list(ids)) for g, (relation, ids) in groups.items()}
-        self.notes: list[str] = []
+        self.notes: list[str] = [
+            f"the nominal {d.name}={format_value(v)} lies outside the box ({format_value(d.low)} to {format_value(d.high)}): "
+            "the shrink goes towards its nearest edge and distances are measured from there"
+            for d in space.dimensions for v in (self.nominal_values.get(d.name),)
+            if d.continuous and isinstance(v, (int, float)) and not isinstance(v, bool) and not d.low - 1e-12 <= v <= d.high + 1e-12]  # fmt: skip
         self.interrupted = False
         self.signum: int | None = None
         """The signal that interrupted the search in its own code (the CLI's SIGINT or SIGTERM), if it says."""

@@ -144,7 +144,8 @@ class Space:
     dimensions: tuple[Dimension, ...]
     signals: tuple[tuple[int, ...], ...] = ()
     """The input signals among the dimensions: each the indices of one ``profile``'s control-point values, in
-    time order (continuous dimensions only; a dimension in one signal at most). The space-filling stage draws
+    time order (ranges and uniform priors only - a normal prior's box ends are its +-4 sigma tails, no held
+    pedal; a dimension in one signal at most). The space-filling stage draws
     every other point *shaped* along them (:mod:`.sampler`): a uniform point is a signal that jumps at every
     control point, which no pedal or set-point does."""
 
@@ -166,7 +167,7 @@ class Space:
             else:
                 mu, sigma = (float(x) for x in spec["normal"])
                 dims.append(Dimension(axis.name, "normal", mu - 4 * sigma, mu + 4 * sigma, sigma / 10, mu=mu, sigma=sigma))
-        index = {d.name: i for i, d in enumerate(dims) if d.continuous}
+        index = {d.name: i for i, d in enumerate(dims) if d.kind in ("range", "uniform")}  # a normal prior's ends are its tails
         groups: list[tuple[int, ...]] = []
         taken: set[int] = set()
         for names in signals:

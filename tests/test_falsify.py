@@ -1534,3 +1534,22 @@ def test_a_normal_prior_is_in_no_signal() -> None:
 
     variations = Variations.parse({"a": {"from": 0, "to": 1, "step": 0.1}, "b": {"normal": [0, 1]}, "c": {"uniform": [0, 2]}})
     assert Space.of(variations, [["a", "b", "c"]]).signals == ((0, 2),)
+
+
+def test_the_quadratic_model_does_not_send_the_search_back_to_a_point_it_ran(tmp_path: pathlib.Path) -> None:
+    """One parameter failing at its high end: the quadratic model's minimum, clipped to the box, is that
+    corner, run at the start - asked again and again it ran 21 times in 30 search runs, each counted a new
+    failing run of the cluster. No point of the search phase is one run before."""
+    data = {"name": "one_point", "signals": {"u": 0}, "tick": 0.1, "timeout": 10, "parameters": {"a": 0},
+            "variations": {"a": {"from": 0, "to": 1, "step": 0.01}},
+            "execute": [{"id": "P", "kind": "behavior", "action": "profile", "params": {"signal": "u", "points": [[0, 0], [1, "$a"]]}}],
+            "oracle": {"criteria": [{"id": "R1", "type": "record", "expect": "u <= 0.9"}]}}  # fmt: skip
+    report = tmp_path / "f.json"
+    main(["falsify", write(tmp_path, data), "--budget", "60", "--seed", "3", "--jobs", "1", "--quiet", "--json", str(report),
+          "--out-dir", str(tmp_path / "o")])  # fmt: skip
+    runs = json.loads(report.read_text())["runs"]
+    seen: set[float] = set()
+    for r in runs:
+        a = r["parameters"]["a"]
+        assert r["phase"] != "search" or a not in seen, (r["index"], a)
+        seen.add(a)

@@ -154,17 +154,6 @@ def _grid_first(space: Space, box: Sequence[Any]) -> int | None:
     return flat + 1
 
 
-def _inside(space: Space, box: Sequence[Any], unit: Sequence[float]) -> bool:
-    """Whether *unit* lies in *box* (:func:`failure_boxes`'s)."""
-    for d, part, u in zip(space.dimensions, box, unit):
-        if d.continuous:
-            if not part[0] - 1e-12 <= u <= part[1] + 1e-12:
-                return False
-        elif int(u) not in part:
-            return False
-    return True
-
-
 def baselines(search: Search) -> dict[str, Any]:
     """Uniform random and the grid at the declared resolution, for the same budget (see the module notes)."""
     space, budget = search.space, search.settings.budget
@@ -187,7 +176,7 @@ def baselines(search: Search) -> dict[str, Any]:
     p = union_share(space, boxes)
     firsts = [f for f in (_grid_first(space, b) for b in boxes) if f is not None]
     first = min(firsts) if firsts else None
-    inside = sum(1 for r in search.runs if not r.failed and any(_inside(space, b, r.unit) for b in boxes))
+    inside = sum(1 for r in search.runs if not r.failed and any(space.contains(b, r.unit) for b in boxes))
     return {
         "failing_share": _num(p),
         "passing_runs_in_boxes": inside,

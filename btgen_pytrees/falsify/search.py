@@ -157,15 +157,7 @@ class Cluster:
     def contains(self, unit: Sequence[float], space: Space) -> bool:
         """Whether *unit* lies in :attr:`span` (the cluster's box as the report draws it, before its
         widening to one resolution)."""
-        if not self.span:
-            return False
-        for d, part, u in zip(space.dimensions, self.span, unit):
-            if d.continuous:
-                if not part[0] - 1e-12 <= u <= part[1] + 1e-12:
-                    return False
-            elif int(u) not in part:
-                return False
-        return True
+        return bool(self.span) and space.contains(self.span, unit)
 
 
 Evaluate = Callable[[list[dict[str, Value]]], list[dict[str, Any]]]

@@ -229,6 +229,17 @@ class Space:
     def grid_size(self) -> int:
         return math.prod(d.grid_size() for d in self.dimensions)
 
+    def contains(self, box: Sequence[Any], unit: Sequence[float]) -> bool:
+        """Whether the unit point *unit* lies in *box*: an interval ``(low, high)`` of unit coordinates per
+        continuous parameter, a set of choice indices per list."""
+        for d, part, u in zip(self.dimensions, box, unit):
+            if d.continuous:
+                if not part[0] - 1e-12 <= u <= part[1] + 1e-12:
+                    return False
+            elif int(u) not in part:
+                return False
+        return True
+
 
 class Points:
     """Points of the unit box kept in one NumPy array (grown by doubling), for the distance from a point to

@@ -79,8 +79,9 @@ itself, and held at its ends it mostly fails a bound on it - a start of 4 runs t
 show the criterion's gradient, and the model never ran."""
 SHAPE_TRIES = 8
 """Draws of a shaped point before the space-filling point goes unshaped: a shape is never drawn twice (nor the
-box's two corners, which the ``gp`` start runs), as a signal of two or three values has few shapes of held
-ends - repeated, they made the start's margins alike and hid a criterion's gradient."""
+box's two corners, which the ``gp`` start runs). A signal held whole at one end is a likely draw (1 in 12 per
+signal), and it is the start's corner again; repeated, such points made the start's margins alike and hid a
+criterion's gradient (4 values per signal: 33 distinct points in 40 draws)."""
 RESTART_SIGMA = 0.3
 """The step size of a restart (a new region: wider)."""
 

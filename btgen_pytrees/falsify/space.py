@@ -145,9 +145,9 @@ class Space:
     signals: tuple[tuple[int, ...], ...] = ()
     """The input signals among the dimensions: each the indices of one ``profile``'s control-point values, in
     time order (ranges and uniform priors only - a normal prior's box ends are its +-4 sigma tails, no held
-    pedal; a dimension in one signal at most). The space-filling stage draws
-    every other point *shaped* along them (:mod:`.sampler`): a uniform point is a signal that jumps at every
-    control point, which no pedal or set-point does."""
+    pedal; a dimension in one signal at most). The space-filling stage draws its points *shaped* along those
+    of 4 values or more (:mod:`.sampler`): a uniform point is a signal that jumps at every control point,
+    which no pedal or set-point does."""
 
     @classmethod
     def of(cls, variations: Variations, signals: Sequence[Sequence[str]] = ()) -> "Space":
